@@ -43,8 +43,7 @@ def errors(strokes, speed, options, refined):
     for name, floor in FLOORS.items():
         scale = floor if name == "lift_to_weight" else floor * te.DRAGONFLY.weight
         ref = getattr(fine, name)
-        denominator = np.maximum(np.abs(ref), scale) if floor else np.abs(ref)
-        out[name] = np.abs(getattr(coarse, name) - ref) / denominator
+        out[name] = np.abs(getattr(coarse, name) - ref) / np.maximum(np.abs(ref), scale)
     return out
 
 

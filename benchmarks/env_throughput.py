@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from functools import partial
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -20,13 +22,15 @@ import tandem_env as te
 ENV_ID = "TandemWing/LevelFlight-v0"
 
 
-def rate(run: Callable[[], int], seconds: float) -> float:
-    """Strokes per second of ``run`` (which returns the strokes it evaluated), over ``seconds``."""
+def rate(run: Callable[[], Any], seconds: float, strokes: int | None = None) -> float:
+    """Strokes per second of ``run`` over ``seconds``: ``strokes`` per call, or (None) the
+    number ``run`` returns, the strokes it evaluated."""
     run()  # warm-up: numba compilation or cache load, first-call allocations
-    strokes, start = 0, time.perf_counter()
+    count, start = 0, time.perf_counter()
     while (elapsed := time.perf_counter() - start) < seconds:
-        strokes += run()
-    return strokes / elapsed
+        done = run()
+        count += done if strokes is None else strokes
+    return count / elapsed
 
 
 def main() -> None:
@@ -38,49 +42,35 @@ def main() -> None:
     rng = np.random.default_rng(0)
     actions = rng.uniform(-1.0, 1.0, (n, 28)).astype(np.float32)
     physical = te.normalised_to_physical(actions.astype(np.float64))
-
-    rows: list[tuple[str, float]] = []
-    for batch in (1, n):
-
-        def raw(batch: int = batch) -> int:
-            te.evaluate(physical[:batch], 1.5)
-            return batch
-
-        rows.append((f"evaluate, B = {batch}", rate(raw, seconds)))
-
+    rows = [
+        (f"evaluate, B = {b}", rate(partial(te.evaluate, physical[:b], 1.5), seconds, b))
+        for b in (1, n)
+    ]
     env = gym.make(ENV_ID)
     env.reset(seed=0)
 
-    def single() -> int:
+    def single() -> None:
         env.reset()
         env.step(actions[0])
-        return 1
 
-    rows.append(("single env (gym.make), reset + step", rate(single, seconds)))
-
+    rows.append(("single env (gym.make), reset + step", rate(single, seconds, 1)))
     for mode, label in (("NextStep", "next-step autoreset"), ("SameStep", "same-step autoreset")):
         envs = gym.make_vec(
             ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", autoreset_mode=mode
         )
         envs.reset(seed=0)
-
-        def vector(envs: gym.vector.VectorEnv = envs) -> int:
-            # Count the strokes actually evaluated (terminated envs), not the reset steps.
-            return int(envs.step(actions)[2].sum())
-
-        rows.append((f"native vector env, n = {n}, {label}", rate(vector, seconds)))
+        # Count the strokes actually evaluated (terminated envs), not the reset steps.
+        vector = rate(lambda: int(envs.step(actions)[2].sum()), seconds)  # noqa: B023
+        rows.append((f"native vector env, n = {n}, {label}", vector))
         envs.close()
 
     from tandem_env.envs.sb3 import make_sb3_vec_env
 
     venv = make_sb3_vec_env(ENV_ID, n_envs=n, seed=0)
     venv.reset()
-
-    def sb3() -> int:
-        venv.step(actions)
-        return n
-
-    rows.append((f"SB3 adapter (TandemVecEnv), n = {n}", rate(sb3, seconds)))
+    rows.append(
+        (f"SB3 adapter (TandemVecEnv), n = {n}", rate(partial(venv.step, actions), seconds, n))
+    )
     venv.close()
 
     reference = rows[1][1]
@@ -92,8 +82,9 @@ def main() -> None:
         {"case": name, "strokes_per_s": value, "of_reference": value / reference}
         for name, value in rows
     ]
-    numbers = {"num_envs": n, "seconds": seconds, "reference": rows[1][0], "rows": table}
-    write_numbers(args.json, numbers)
+    write_numbers(
+        args.json, {"num_envs": n, "seconds": seconds, "reference": rows[1][0], "rows": table}
+    )
 
 
 if __name__ == "__main__":

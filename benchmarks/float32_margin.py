@@ -6,7 +6,6 @@ The polish holds one float32 step of every coordinate inside each constraint. At
 stroke: the multipliers λ of the active constraints (non-negative least squares) and the
 margins m; prints the first-order cost Σ λ_i m_i per record, then its median and largest
 relative to the objective.
-
 """
 
 from __future__ import annotations

@@ -133,23 +133,22 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
     speeds = rng.uniform(0.25, 2.0, 1024)
-    options = PAPER
     print(
-        f"{machine()}; n_time = {options.n_time}, n_blade = {options.n_blade}, "
-        f"tolerance {options.tolerance:g}"
+        f"{machine()}; n_time = {PAPER.n_time}, n_blade = {PAPER.n_blade}, "
+        f"tolerance {PAPER.tolerance:g}"
     )
     print()
     print(f"force sweeps per fore-wing annulus (own inflow, {SWEEP_STROKES} random strokes):")
     sweeps = []
     for speed in SWEEP_SPEEDS:
         counts, solved = sweeps_per_annulus(strokes[:SWEEP_STROKES], speed)
-        hist = np.bincount(counts[solved])
+        hist = {int(k): int(n) for k, n in enumerate(np.bincount(counts[solved])) if n}
         share = float(solved.mean())
         mean = float(counts[solved].mean())
         most = int(counts.max())
         print(
             f"  V = {speed:.0f} m/s: {share:.0%} of annuli solved, mean {mean:.2f} sweeps (max "
-            f"{most}), histogram {dict((int(k), int(n)) for k, n in enumerate(hist) if n)}"
+            f"{most}), histogram {hist}"
         )
         row = {"speed": speed, "solved_share": share, "mean_sweeps": mean, "max_sweeps": most}
         sweeps.append(row)

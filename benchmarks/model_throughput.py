@@ -28,6 +28,7 @@ from shared import PAPER, best_time, call_times, machine, parser_with_json, writ
 
 import tandem_env as te
 from tandem_env.physics import model
+from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 
 
 def main() -> None:
@@ -74,31 +75,25 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     }
     print(f"{'batch':>6} {'induction':>10} {'evals/s':>10} {'ms/call':>9} {'inflow sweeps*':>15}")
     for induction, batch in product(args.induction, args.batches or (1, 64, 1024)):
-        x = strokes[:batch]
-        v = speeds[:batch]
         opts = replace(PAPER, induction=induction)
-        seconds = best_time(partial(te.evaluate, x, v, options=opts), args.repeats)
-        sweeps = float(te.evaluate(x, v, options=opts).induction_evaluations.mean())
-        rate = batch / seconds
-        ms = 1e3 * seconds
+        call = partial(te.evaluate, strokes[:batch], speeds[:batch], options=opts)
+        seconds = best_time(call, args.repeats)
+        sweeps = float(call().induction_evaluations.mean())
+        rate, ms = batch / seconds, 1e3 * seconds
         print(f"{batch:>6} {induction:>10} {rate:>10.0f} {ms:>9.2f} {sweeps:>15.1f}")
         row = {"batch": batch, "induction": induction, "evaluations_per_s": rate}
         numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
     print()
     print("where the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
-    angles, weights, frequency, beta, sweep, motion = model.parametric_kernel_inputs(
-        strokes, options.n_time
-    )
-    inputs = (angles, weights, frequency, beta, sweep, speeds, np.zeros_like(speeds), te.DRAGONFLY)
-    no_inflow = replace(PAPER, induction="none")
+    *kinematic, motion = model.parametric_kernel_inputs(strokes, options.n_time)
+    inputs = (*kinematic, speeds, np.zeros_like(speeds), te.DRAGONFLY)
     kinematics = partial(model.parametric_kernel_inputs, strokes, options.n_time)
+    no_inflow = partial(model.run_kernel, *inputs, replace(PAPER, induction="none"), motion=motion)
     parts = {
         "validate strokes": lambda: te.validate_physical(strokes),
         "kinematics (angles, analytic rates)": kinematics,
-        "cycle without inflow (frames, forces, power, means)": partial(
-            model.run_kernel, *inputs, no_inflow, motion=motion
-        ),
+        "cycle without inflow (frames, forces, power, means)": no_inflow,
         "cycle with coupled inflow": partial(model.run_kernel, *inputs, options, motion=motion),
         "whole evaluate()": lambda: te.evaluate(strokes, speeds, options=PAPER),
     }
@@ -211,8 +206,6 @@ def gradient_cost(
     args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndarray
 ) -> dict[str, Any]:
     """One autograd gradient against one batched central difference of the numba model."""
-    from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
-
     columns = np.flatnonzero(~DISCRETE)
     step = 1e-6 * (UPPER - LOWER)[columns]
     probes = np.repeat(strokes[:1], 1 + 2 * columns.size, axis=0)

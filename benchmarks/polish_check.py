@@ -6,7 +6,6 @@ For every harness record in the stores: an SLSQP of its own (sharing no code wit
 ``agents/polish.py``, whose work it checks) from the record's stroke under the task's margins.
 Prints per record the objective, the fresh polish's gain [%] and its final violation, then per
 condition how many seeds gain < 0.5 %, the best of each half of the seeds and the median.
-
 """
 
 from __future__ import annotations
@@ -93,13 +92,12 @@ def main() -> int:
         key = (record.task, record.objective_name, record.condition.value, record.budget)
         groups[key].append((record, gain))
     for key, rows in groups.items():
-        seeds = [r.seed for r, _ in rows]
         half = len(rows) // 2
         first = max(r.objective for r, _ in rows[:half]) if half else float("nan")
         second = max(r.objective for r, _ in rows[half:]) if half else float("nan")
         small = sum(g < GAIN_LIMIT for _, g in rows)
         print(
-            f"{key}: seeds {seeds[0]}-{seeds[-1]} ({len(rows)}): all feasible "
+            f"{key}: seeds {rows[0][0].seed}-{rows[-1][0].seed} ({len(rows)}): all feasible "
             f"{all(r.feasible for r, _ in rows)}, within budget "
             f"{all(r.evaluations <= r.budget for r, _ in rows)}; fresh polish gain < "
             f"{GAIN_LIMIT} % on {small}/{len(rows)}; best of first half {first:.5f}, second "

@@ -5,7 +5,6 @@
 The polish's ``CentralDifferences`` (53 strokes in ONE numba call) against ``AutogradGradient``
 (one torch stroke) on level flight at 1.5 m/s and accelerating flight at 60 W/kg, after a
 warm-up: the median and fastest call [ms], their ratio, and the torch forward pass alone.
-
 """
 
 from __future__ import annotations

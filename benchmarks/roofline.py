@@ -24,7 +24,6 @@ import argparse
 import os
 import subprocess
 import sys
-import time
 from collections import Counter
 from pathlib import Path
 
@@ -40,17 +39,10 @@ def workload(te, batch: int = 1024):
     return lambda: te.evaluate(strokes, 1.0, options=options), strokes, options
 
 
-def seconds_per_call(call, calls: int) -> tuple[float, float]:
-    """Wall and CPU (all threads of this process) seconds per call."""
-    start, start_cpu = time.perf_counter(), time.process_time()
-    for _ in range(calls):
-        call()
-    return (time.perf_counter() - start) / calls, (time.process_time() - start_cpu) / calls
-
-
 def worker() -> None:
     """Time the ``tandem_env`` on the path: read 'threads calls', answer seconds per call."""
     import numba
+    from shared import seconds_per_call
 
     import tandem_env as te
 
@@ -133,6 +125,7 @@ def machine_limits() -> dict[str, float]:
     """FMA flops and 1/sqrt(x) per ns of CPU time, each from a vectorised numba loop over data
     in L1 (best of 5)."""
     import numba
+    from shared import seconds_per_call
 
     @numba.njit(fastmath={"contract"})
     def fma(x, n):
@@ -162,6 +155,7 @@ def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
     (each timed alone in a compiled loop over the batch), the rest of the kernel (the force
     sweeps, slopes and span integrals of the inflow solve) and what is left outside it."""
     import numba
+    from shared import seconds_per_call
 
     from tandem_env.physics import blade, cycle, model
 
@@ -226,7 +220,7 @@ def main() -> None:
     args = parser.parse_args()
     os.environ["NUMBA_NUM_THREADS"] = str(max(args.threads))
     import numba
-    from shared import write_numbers  # it loads numba: after NUMBA_NUM_THREADS
+    from shared import seconds_per_call, write_numbers  # it loads numba: after NUMBA_NUM_THREADS
 
     import tandem_env as te
     from tandem_env.physics import cycle, model

@@ -10,12 +10,8 @@ from eval.studies.report import table_head, table_row
 CONVERGENCE = Benchmark(("benchmarks/convergence.py", "--resolutions", "128x24"))
 CONVERGENCE_BOUND_PERCENT = 0.5
 """The defaults' bound on the error of forces and power against the refined run [%] (§11.4)."""
-CONVERGENCE_COLUMNS: tuple[tuple[str, str], ...] = (
-    ("lift_to_weight", "L/W"),
-    ("thrust", "T"),
-    ("drag", "D"),
-    ("power", "P"),
-)
+#: The columns: each result's field and its title.
+CONVERGENCE_COLUMNS = {"lift_to_weight": "L/W", "thrust": "T", "drag": "D", "power": "P"}
 
 
 def render(data: dict[str, Any]) -> str:
@@ -27,10 +23,12 @@ def render(data: dict[str, Any]) -> str:
             text += f" (p95 {error['p95']:.2g} %)"
         return text
 
-    lines = table_head(["V [m/s]", *(f"{title} median / max" for _, title in CONVERGENCE_COLUMNS)])
+    lines = table_head(
+        ["V [m/s]", *(f"{title} median / max" for title in CONVERGENCE_COLUMNS.values())]
+    )
     for r in rows:
         speed = "0 (hover)" if r["speed"] == 0.0 else f"{r['speed']:.1f}"
-        cells = (cell(r["error_percent"][name]) for name, _ in CONVERGENCE_COLUMNS)
+        cells = (cell(r["error_percent"][name]) for name in CONVERGENCE_COLUMNS)
         lines.append(table_row([speed, *cells]))
     lines += [
         "",

@@ -8,14 +8,25 @@ from __future__ import annotations
 
 import math
 import re
+import tempfile
 from collections.abc import Callable, Mapping, Sequence
-from functools import partial
 from pathlib import Path
 from typing import Any
 
-from eval.crosscheck.report import case_of
+from eval.crosscheck.case import Case, Resolution, base_stroke
+from eval.crosscheck.report import (
+    agreement_numbers,
+    case_of,
+    model_cells,
+    ours,
+    stroke_changes,
+    write_figure,
+    write_scatter,
+)
 from eval.numbers import framework
 from eval.studies.report import table_head, table_row
+from tandem_env.io.files import write_csv_atomic
+from tandem_env.physics import DRAGONFLY
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
 LAG_STUDY_COMMAND = (
@@ -52,10 +63,6 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """The stored rows with the model's columns (``ours_*``: isolated forces, each slipstream
     reading's changes) computed afresh by the model as it is (``eval.crosscheck.report.ours``),
     the solver's columns as stored: a new or changed reading without rerunning the solver."""
-    from eval.crosscheck.case import Case, base_stroke
-    from eval.crosscheck.report import model_cells, ours
-    from tandem_env.physics import DRAGONFLY
-
     out = [dict(row) for row in rows]
     for key in dict.fromkeys(case_of(r) for r in rows):
         mine = [r for r in out if case_of(r) == key]
@@ -73,8 +80,6 @@ def generalisation_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, 
     the grid's cases at their lags in the grid's order (``eval.crosscheck.cli.GRIDS``), checked
     against each row's stroke, speed and lag; SystemExit where they are not."""
     from eval.crosscheck.cli import GRIDS
-    from eval.crosscheck.report import model_cells, ours, stroke_changes
-    from tandem_env.physics import DRAGONFLY
 
     cases = [point.case(DRAGONFLY, {}, None) for point in GRIDS["generalisation"].points]
     model = {case: ours(case, DRAGONFLY) for case in cases}
@@ -94,56 +99,42 @@ def generalisation_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, 
     return out
 
 
-def refresh_generalisation() -> None:
-    """Rewrite the generalisation grid's stored table with the model's columns afresh
-    (:func:`generalisation_columns`) and redraw its figure from the free wake's rows, as
-    ``python -m eval crosscheck --grid generalisation`` draws it."""
-    from eval.crosscheck.report import write_scatter
-    from tandem_env.io.files import write_csv_atomic
-
-    rows = generalisation_columns(framework.read_rows(GENERALISATION_FILES["crosscheck.csv"]))
-    write_csv_atomic(GENERALISATION_FILES["crosscheck.csv"], rows)
-    free = [{k: typed(v) for k, v in row.items()} for row in rows if row["wake"] == "free"]
-    draw_into_docs(partial(write_scatter, table=free), GENERALISATION_FILES["crosscheck.png"])
-
-
-def draw_into_docs(draw: Callable[[Path], Any], figure: Path) -> None:
-    """``draw(folder)`` writes the cross-check's figure into a scratch folder, as the command
-    does into its ``--out``; copied from there to the docs' ``figure``."""
-    import tempfile
-
+def refresh(
+    files: Mapping[str, Path],
+    columns: Callable[[list[dict[str, str]]], list[dict[str, Any]]],
+    draw: Callable[[Path, list[dict[str, Any]]], Any],
+) -> list[dict[str, Any]]:
+    """Rewrite a stored table (``files``: the docs' copies) with the model's columns afresh
+    (``columns`` of its rows) and redraw its figure: ``draw(folder, typed rows)`` writes it into
+    a scratch folder, as ``python -m eval crosscheck`` does into its ``--out``; the rows."""
+    rows = columns(framework.read_rows(files["crosscheck.csv"]))
+    write_csv_atomic(files["crosscheck.csv"], rows)
     with tempfile.TemporaryDirectory() as folder:
-        draw(Path(folder))
-        framework.copy_outputs(Path(folder), {"crosscheck.png": figure})
-
-
-def redraw_figure(rows: Sequence[Mapping[str, Any]]) -> None:
-    """Draw the docs' figure afresh from the table's rows (the solver's columns as stored, the
-    model's as they are now), as ``python -m eval crosscheck`` draws it."""
-    from eval.crosscheck.case import Resolution
-    from eval.crosscheck.report import write_figure
-
-    # the stored study ran before --wake existed, on the free wake
-    table = [{"wake": "free", **{k: typed(v) for k, v in row.items()}} for row in rows]
-    draw = partial(write_figure, table=table, base=Resolution())
-    draw_into_docs(draw, LAG_STUDY_FILES["crosscheck.png"])
+        draw(Path(folder), [{k: typed(v) for k, v in row.items()} for row in rows])
+        framework.copy_outputs(Path(folder), {"crosscheck.png": files["crosscheck.png"]})
+    return rows
 
 
 def measure() -> dict[str, Any]:
     """Collect the finished lag study in :data:`LAG_STUDY_OUT` (about an hour on 2 idle cores:
     run :data:`LAG_STUDY_COMMAND` first) and copy its table and figure into the docs. Without
     that folder, recompute the model's columns (:func:`model_columns`) on the stored study's
-    rows and write them into the docs' table and figure, and the generalisation grid's
-    likewise (:func:`refresh_generalisation`)."""
+    rows and write them into the docs' table and figure (the solver not rerun), and the
+    generalisation grid's likewise (:func:`generalisation_columns`; its figure the free
+    wake's)."""
     table = LAG_STUDY_OUT / "crosscheck.csv"
     if not table.is_file() and LAG_STUDY_FILES["crosscheck.csv"].is_file():
-        from tandem_env.io.files import write_csv_atomic
-
         stored = framework.load("crosscheck-lag-study")
-        rows = model_columns(framework.read_rows(LAG_STUDY_FILES["crosscheck.csv"]))
-        write_csv_atomic(LAG_STUDY_FILES["crosscheck.csv"], rows)
-        redraw_figure(rows)
-        refresh_generalisation()
+
+        def lag_figure(folder: Path, rows: list[dict[str, Any]]) -> None:
+            # the stored study ran before --wake existed, on the free wake
+            write_figure(folder, [{"wake": "free", **r} for r in rows], base=Resolution())
+
+        def free_wake(folder: Path, rows: list[dict[str, Any]]) -> None:
+            write_scatter(folder, table=[r for r in rows if r["wake"] == "free"])
+
+        rows = refresh(LAG_STUDY_FILES, model_columns, lag_figure)
+        refresh(GENERALISATION_FILES, generalisation_columns, free_wake)
         return {**stored, "rows": rows, "model_refreshed": True}
     if not table.is_file():
         raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
@@ -230,8 +221,6 @@ def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     shared with the UVLM, their RMS differences [points]
     (:func:`~eval.crosscheck.report.agreement_numbers`), and the cases whose largest hind loss
     lies within 45° of the UVLM's."""
-    from eval.crosscheck.report import agreement_numbers
-
     out = {}
     entries = summary(rows)
     for reading in readings(rows):

@@ -21,7 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from threadpoolctl import threadpool_info
+
+from agents.store import read_record_files
 from eval.studies.report import table_head, table_row
+from tandem_env.io.files import atomic_path, read_json, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[2]
 NUMBERS_DIR = ROOT / "docs" / "numbers"
@@ -48,20 +52,14 @@ def run_command(command: Sequence[str], environment: dict[str, str] | None = Non
     return time.perf_counter() - start
 
 
-OPTIMIZE: tuple[str, ...] = ("python", "-m", "eval", "optimize")
-"""The documented optimisation command, before its options."""
-
-
 def optimize_command(arguments: Sequence[str], seeds: Sequence[int]) -> str:
     """The documented ``eval optimize`` command of ``arguments`` over ``seeds`` (no ``--out``)."""
-    return " ".join([*OPTIMIZE, *arguments, "--seeds", *map(str, seeds)])
+    return " ".join(["python -m eval optimize", *arguments, "--seeds", *map(str, seeds)])
 
 
 def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
     """Run the documented ``eval optimize`` command into a fresh folder with the record cache
     off (measured now, wall times too); its records, by seed."""
-    from agents.store import read_record_files
-
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
         command = optimize_command(arguments, seeds).split()
         run_command([*command, "--out", out, "--no-cache"])
@@ -75,8 +73,7 @@ def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str,
     """The cells of one command's seeds under each BLAS kernel (the machine's own first): each
     seed's objective and their median (bold) at the digits every kernel gives, whether all are
     feasible under every kernel, and the range of the own kernel's wall times per seed."""
-    seeds = by_kernel[0]
-    times = [s["wall_time_s"] for s in seeds]
+    times = [s["wall_time_s"] for s in by_kernel[0]]
     objectives = [[s["objective"] for s in kernel] for kernel in by_kernel]
     return (
         ", ".join(agreed(values, "{:.4f}") for values in zip(*objectives, strict=True)),
@@ -99,7 +96,6 @@ def blas_kernel() -> str:
     """The kernel numpy's BLAS runs here: OpenBLAS's core type (``SkylakeX``, ``Haswell``, ...,
     as threadpoolctl reports it; ``OPENBLAS_CORETYPE`` chooses it), else the library's name."""
     import numpy  # noqa: F401  (threadpoolctl sees the BLAS of the modules already loaded)
-    from threadpoolctl import threadpool_info
 
     for library in threadpool_info():
         if library["user_api"] == "blas":
@@ -110,8 +106,6 @@ def blas_kernel() -> str:
 def other_kernels() -> list[str]:
     """The kernels of :data:`OTHER_BLAS_KERNELS` but the machine's own (none where numpy's BLAS
     is not OpenBLAS: its kernel cannot be chosen)."""
-    from threadpoolctl import threadpool_info
-
     own = blas_kernel()
     if not any(lib["internal_api"] == "openblas" for lib in threadpool_info()):
         return []
@@ -181,8 +175,6 @@ class Benchmark:
         return " ".join([*(f"{k}={v}" for k, v in self.environment), "python", *self.arguments])
 
     def run(self) -> dict[str, Any]:
-        from tandem_env.io.files import read_json
-
         with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
             path = Path(out) / "numbers.json"
             run_command(["python", *self.arguments, "--json", str(path)], dict(self.environment))
@@ -194,10 +186,11 @@ def table(titles: Sequence[str], rows: Iterable[Iterable[object]]) -> list[str]:
     return [*table_head(titles), *map(table_row, rows)]
 
 
-def median_range(row: dict[str, Any], kind: str, median: str = "_median") -> str:
-    """A row's ``{kind}{median}`` and ``{kind}_range`` as the tables write them: 1.23 (1.10-1.40)."""
+def median_range(row: dict[str, Any], kind: str, median: str = "_median", unit: str = "") -> str:
+    """A row's ``{kind}{median}`` and ``{kind}_range`` as the tables write them: 1.23 (1.10-1.40)
+    (``unit`` after the median)."""
     low, high = row[kind + "_range"]
-    return f"{row[kind + median]:.2f} ({low:.2f}-{high:.2f})"
+    return f"{row[kind + median]:.2f}{unit} ({low:.2f}-{high:.2f})"
 
 
 def spaced(value: float, digits: int = 0) -> str:
@@ -211,21 +204,6 @@ def minutes(seconds: float, padded: bool = False) -> str:
     if not whole:
         return f"{rest} s"
     return f"{whole} min {rest:02d} s" if padded else f"{whole} min {rest} s"
-
-
-RANDOM_STROKES = 1000
-"""Random Table 4 strokes (uniform in the normalised box, seed 0) of the model's readings."""
-
-
-def random_strokes(n: int = RANDOM_STROKES, seed: int = 0) -> Any:
-    """(n, 28) physical strokes drawn uniformly in Table 4's box."""
-    import numpy as np
-
-    import tandem_env
-
-    return tandem_env.normalised_to_physical(
-        np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 28))
-    )
 
 
 @dataclass(frozen=True)
@@ -291,8 +269,6 @@ def read_rows(path: Path) -> list[dict[str, str]]:
 
 def copy_outputs(run: Path, copies: dict[str, Path]) -> None:
     """Copy a finished run's small outputs (its file name -> the docs' copy), atomically."""
-    from tandem_env.io.files import atomic_path
-
     for name, copy in copies.items():
         with atomic_path(copy) as tmp:
             shutil.copyfile(run / name, tmp)
@@ -307,8 +283,6 @@ def load(name: str) -> dict[str, Any]:
 
 
 def save(name: str, data: dict[str, Any]) -> None:
-    from tandem_env.io.files import write_text_atomic
-
     write_text_atomic(json_path(name), json.dumps(data, indent=1, ensure_ascii=False) + "\n")
 
 

@@ -13,20 +13,25 @@ from typing import Any
 
 import numpy as np
 
-from eval.numbers.framework import RANDOM_STROKES, Measurement, random_strokes, spaced
+import tandem_env
+from eval.numbers.framework import Measurement, spaced
+from eval.reference import reference_markdown
 from tandem_env.envs.reference import reference_path
 
 ROTATION_SPEEDS: tuple[float, ...] = (0.0, 1.5)
 """Flight speeds [m/s] of the rotational-coefficient reading (hover and 1.5 m/s)."""
 POWER_SPEEDS: tuple[float, ...] = (0.0, 1.0, 2.0)
 """Flight speeds [m/s] of the power-conventions reading."""
+RANDOM_STROKES = 1000
+"""Random Table 4 strokes (uniform in the normalised box, seed 0) of the readings."""
 
 
 def on_random_strokes(
     speeds: tuple[float, ...], row: Callable[[np.ndarray, float], dict[str, Any]]
 ) -> dict[str, Any]:
     """A reading's data: ``row(strokes, speed)`` of the random strokes at each of ``speeds``."""
-    strokes = random_strokes()
+    box = np.random.default_rng(0).uniform(-1.0, 1.0, (RANDOM_STROKES, 28))
+    strokes = tandem_env.normalised_to_physical(box)
     rows = [{"speed": speed, **row(strokes, speed)} for speed in speeds]
     return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
 
@@ -34,8 +39,6 @@ def on_random_strokes(
 def measure_rotation() -> dict[str, Any]:
     """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
     lift at least half the weight with π."""
-    import tandem_env
-
     insect = tandem_env.DRAGONFLY
     half = replace(
         insect,
@@ -71,7 +74,6 @@ def render_rotation(data: dict[str, Any]) -> str:
 
 def measure_power() -> dict[str, Any]:
     """The aerodynamic power over the absolute and elastic ones on the random strokes."""
-    import tandem_env
 
     def row(strokes: np.ndarray, speed: float) -> dict[str, Any]:
         absolute, elastic, aero = (
@@ -108,8 +110,6 @@ def measure_reference() -> dict[str, Any]:
 
 
 def render_reference(data: dict[str, Any]) -> str:
-    from eval.reference import reference_markdown
-
     return reference_markdown(data)
 
 

@@ -11,6 +11,7 @@ from typing import Any
 
 from eval.compare import relative_spread
 from eval.numbers import framework
+from tandem_env.physics.stroke import TABLE_4
 
 
 @dataclass(frozen=True)
@@ -178,8 +179,6 @@ def _bounds_text(rows: Sequence[dict[str, Any]]) -> str:
 
 
 def render_species(data: dict[str, Any]) -> str:
-    from tandem_env.physics.stroke import TABLE_4
-
     table = {p.name: p for p in TABLE_4}
     unit = lambda p: "°" if p.unit == "deg" else p.unit  # noqa: E731
     parameters = [

@@ -7,7 +7,11 @@ from pathlib import Path
 from typing import Any
 
 from eval.numbers import framework
+from eval.studies.readings import MANIFEST
+from eval.studies.readings.plan import COUNTS, HEADLINES
+from eval.studies.readings.report import check_table
 from eval.studies.report import table_head
+from tandem_env.io.files import read_json
 
 READINGS_PAPER_OUT = Path("results") / "readings-paper"
 READINGS_PAPER_COMMAND = (
@@ -33,9 +37,6 @@ def measure() -> dict[str, Any]:
     """Collect the finished paper-preset readings run in :data:`READINGS_PAPER_OUT` (it takes
     1-2 h on 2 cores: run :data:`READINGS_PAPER_COMMAND` first) and copy its small outputs
     into the docs (:data:`READINGS_PAPER_FILES`)."""
-    from eval.studies.readings import MANIFEST
-    from tandem_env.io.files import read_json
-
     out = READINGS_PAPER_OUT
     if not (out / MANIFEST).is_file():
         raise SystemExit(f"{out} holds no finished readings run; run `{READINGS_PAPER_COMMAND}`")
@@ -74,9 +75,6 @@ def _invocation_line(invocation: dict[str, Any]) -> str:
 def render(data: dict[str, Any]) -> str:
     """The readings table (the paper's numbers first, the best count in bold), the run's
     phases, the combination rule and the continuation's bias check with what ran in full."""
-    from eval.studies.readings.plan import COUNTS, HEADLINES
-    from eval.studies.readings.report import check_table
-
     paper = {c["id"]: c["paper"] for c in data["claims"]}
     rows = data["rows"]
     worked = [inv for inv in data["invocations"] if any(p["ran"] for p in inv["phases"])]

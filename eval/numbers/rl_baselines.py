@@ -19,8 +19,10 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from eval.figures import PALETTE, plt, save
 from eval.numbers import framework
 from eval.studies.report import table_head, table_row
+from tandem_env.envs.reference import held_out_conditions
 
 ENV_ID = "TandemWing/LevelFlight-v0"
 #: (algo, training steps): the documented envelope run's 300 k for PPO; SAC's tuned 100 k.
@@ -65,8 +67,6 @@ def score_run(
 ) -> dict[str, Any]:
     """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition
     through ``python -m train.envelope``; ``variant``: the hyperparameters."""
-    from tandem_env.envs.reference import held_out_conditions
-
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
     seconds = framework.run_command([*command, "-f", str(logs)], _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
@@ -166,10 +166,6 @@ def render(data: dict[str, Any]) -> str:
 def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     """Score against speed per policy of :data:`POLICIES`: each seed thin, the median thick (the
     shipped hyperparameters' median only, dashed); ``fresh``: runs just measured, by name."""
-    import matplotlib.pyplot as plt
-
-    from eval.figures import PALETTE, save
-
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
     stored = {
         name: framework.load(name)["runs"]
@@ -189,16 +185,9 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
         medians = [statistics.median(col) for col in zip(*(r["scores"] for r in runs), strict=True)]
         label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
         label += f" (median of {len(runs)} seeds{'' if shipped else '; thin: each'})"
-        ax.plot(
-            runs[0]["conditions"],
-            medians,
-            color=colours[algo],
-            lw=1.4 if shipped else 2.2,
-            ls="--" if shipped else "-",
-            marker="o",
-            ms=3 if shipped else 5,
-            label=label,
-        )
+        style = {"lw": 1.4, "ls": "--", "ms": 3} if shipped else {"lw": 2.2, "ls": "-", "ms": 5}
+        conditions = runs[0]["conditions"]
+        ax.plot(conditions, medians, color=colours[algo], marker="o", label=label, **style)
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("flight speed V [m/s] (held-out conditions)")

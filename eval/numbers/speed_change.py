@@ -5,7 +5,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
+from eval import speed_change
 from eval.numbers import framework
+from tandem_env.envs.speed_change_config import SpeedChangeConfig
 
 SPEED_CHANGE_EPISODES = 32
 SPEED_CHANGE_COMMAND = f"python -m eval speed-change --episodes {SPEED_CHANGE_EPISODES}"
@@ -23,9 +27,6 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
     """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
     defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed,
     computed now (the record cache off: a cached optimum may come from another BLAS kernel)."""
-    from eval import speed_change
-    from tandem_env.envs.speed_change_config import SpeedChangeConfig
-
     records = speed_change.optima_records(
         SpeedChangeConfig.from_kwargs(),
         speeds=speed_change.STEADY_GRID if speeds is None else speeds,
@@ -47,10 +48,6 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
 def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list[dict[str, Any]]:
     """``policy_summary_rows`` of the random and steady policies over the evaluation episodes, the
     steady one playing ``optima``."""
-    import numpy as np
-
-    from eval import speed_change
-
     column = lambda key: np.array([o[key] for o in optima], dtype=np.float64)  # noqa: E731
     steady = speed_change.SteadyPolicy(column("speed"), column("normalised_stroke"))
     seeds = range(first_seed, first_seed + SPEED_CHANGE_EPISODES)
@@ -63,8 +60,6 @@ def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list
 
 
 def measure() -> dict[str, Any]:
-    from eval import speed_change
-
     optima = speed_change_optima()
     return {
         "command": SPEED_CHANGE_COMMAND,
@@ -75,13 +70,11 @@ def measure() -> dict[str, Any]:
 
 
 def render(data: dict[str, Any]) -> str:
-    from eval.speed_change import policy_summary_markdown
-
     optima = data["optima"]
     first = data["optima"][0]
     random = next(r for r in data["rows"] if r["policy"] == "random")
     lines = [
-        policy_summary_markdown(data["rows"]).rstrip("\n"),
+        speed_change.policy_summary_markdown(data["rows"]).rstrip("\n"),
         "",
         f"Random strokes end their episodes after {random['flight_time_mean_s']:.2f} s on "
         f"average. The steady schedule's level-flight optima ({first['method']}, "

@@ -14,6 +14,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from agents.store import RecordStore
 from eval.numbers import framework
 
 MODEL_THROUGHPUT = framework.Benchmark(("benchmarks/model_throughput.py",))
@@ -94,9 +95,8 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
     )
     for reading, where in (("convected", "§5.7"), ("vortex", "§5.8")):
         slipstream = "; ".join(
-            f"batch {r['batch']}: {r['cpu_median']:.2f}× CPU ({r['cpu_range'][0]:.2f}-"
-            f"{r['cpu_range'][1]:.2f}), {r['wall_median']:.2f}× wall ({r['wall_range'][0]:.2f}-"
-            f"{r['wall_range'][1]:.2f})"
+            f"batch {r['batch']}: {framework.median_range(r, 'cpu', unit='× CPU')}, "
+            f"{framework.median_range(r, 'wall', unit='× wall')}"
             for r in data.get("slipstream_ratios", [])
             if r.get("reading", "convected") == reading
         )
@@ -158,17 +158,16 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
     )
     batches = sorted({batch for batch, _ in eager} | {batch for batch, _ in compiled})
 
-    def cell(rates: dict[tuple[int, str], dict[str, Any]], key: tuple[int, str]) -> str:
-        if key not in rates:
+    def cell(r: dict[str, Any] | None) -> str:
+        if r is None:
             return ""
-        r = rates[key]
         return (
             f"{framework.spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
         )
 
     lines = framework.table(
         ["batch", *(title for title, _, _ in columns)],
-        ([batch, *(cell(rates, (batch, i)) for _, rates, i in columns)] for batch in batches),
+        ([batch, *(cell(rates.get((batch, i))) for _, rates, i in columns)] for batch in batches),
     )
     lines += [
         "",
@@ -259,8 +258,6 @@ TRAINING_COMMAND: tuple[str, ...] = tuple(
 
 def measure_quick_preset() -> dict[str, Any]:
     """Run the quick preset into an empty folder: wall time [s], jobs, model evaluations."""
-    from agents.store import RecordStore
-
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
         wall = framework.run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
         records = RecordStore(Path(out)).records()
