@@ -246,7 +246,8 @@ def station_weights(pair: Pair, wake: VortexWake) -> np.ndarray:
 
 @lru_cache(maxsize=64)
 def _spline_weights(source: tuple[float, ...], target: tuple[float, ...]) -> np.ndarray:
-    # imported here: only the vortex reading needs it, and importing the package should not
+    # imported here: only the vortex reading needs scipy's interpolation, not every import
+    # of the package
     from scipy.interpolate import CubicSpline
 
     # the spline through each unit vector of station values: its value at the targets is
