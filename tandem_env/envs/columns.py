@@ -14,7 +14,10 @@ Columns = dict[str, Any]
 
 def row(columns: Columns, index: int) -> dict[str, Any]:
     """One env's info dict: plain Python floats, bools and ints (nested dicts stay dicts)."""
-    return rows(take_columns(columns, np.array([index])), 1)[0]
+    return {
+        key: row(value, index) if isinstance(value, dict) else value[index].item()
+        for key, value in columns.items()
+    }
 
 
 def take_columns(columns: Columns, index: np.ndarray) -> Columns:

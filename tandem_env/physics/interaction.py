@@ -239,39 +239,31 @@ def station_weights(pair: Pair, wake: VortexWake) -> np.ndarray:
     """(n_blade, M) weights of the natural cubic spline in r through the M
     :func:`read_stations` onto the pair's elements, held constant beyond the end stations
     (docs/model.md §5.8 item 5)."""
-    return _spline_weights(
-        tuple(read_stations(wake).tolist()), tuple((pair.r / pair.wing.length).tolist())
-    ).copy()
+    return span_interpolation(read_stations(wake), pair.r / pair.wing.length, spline=True)
 
 
-@lru_cache(maxsize=64)
-def _spline_weights(source: tuple[float, ...], target: tuple[float, ...]) -> np.ndarray:
-    # imported here: only the vortex reading needs scipy's interpolation, not every import
-    # of the package
-    from scipy.interpolate import CubicSpline
-
-    # the spline through each unit vector of station values: its value at the targets is
-    # that station's weight (the spline is linear in the values)
-    stations = np.asarray(source)
-    spline = CubicSpline(stations, np.eye(len(source)), bc_type="natural")
-    weights = spline(np.clip(target, stations[0], stations[-1]))
-    weights.flags.writeable = False
-    return weights
-
-
-def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """(n_t, n_s) weights of linear interpolation in r from ``source`` to ``target`` radii
-    (held constant beyond the ends): a copy of the weights kept per pair of radii (every pass
-    of every call of a wing asks for the same)."""
+def span_interpolation(source: np.ndarray, target: np.ndarray, spline: bool = False) -> np.ndarray:
+    """(n_t, n_s) weights of interpolation in r from ``source`` to ``target`` radii, linear or
+    (``spline``) by a natural cubic spline, held constant beyond the ends: a copy of the
+    weights kept per pair of radii (every pass of every call of a wing asks for the same)."""
     return _span_weights(
-        tuple(np.asarray(source, float).tolist()), tuple(np.asarray(target, float).tolist())
+        tuple(np.asarray(source, float).tolist()), tuple(np.asarray(target, float).tolist()), spline
     ).copy()
 
 
 @lru_cache(maxsize=64)
-def _span_weights(source: tuple[float, ...], target: tuple[float, ...]) -> np.ndarray:
-    columns = np.eye(len(source))
-    weights = np.stack([np.interp(target, source, column) for column in columns], -1)
+def _span_weights(source: tuple[float, ...], target: tuple[float, ...], spline: bool) -> np.ndarray:
+    # column j: the interpolant through the unit vector of station j's value (the weights are
+    # linear in the values), at the targets held within the stations
+    stations = np.asarray(source)
+    at = np.clip(target, stations[0], stations[-1])
+    if spline:
+        # imported here: only the vortex reading's read stations need scipy's interpolation
+        from scipy.interpolate import CubicSpline
+
+        weights = CubicSpline(stations, np.eye(len(source)), bc_type="natural")(at)
+    else:
+        weights = np.stack([np.interp(at, stations, column) for column in np.eye(len(source))], -1)
     weights.flags.writeable = False
     return weights
 

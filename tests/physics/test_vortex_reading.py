@@ -172,16 +172,23 @@ def test_reduced_wake_converges(monkeypatch, refined, points):
         assert np.abs(after - before).max() < points, (refined, speed)
 
 
+@cache
+def _random_flight() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """24 random Table 4 strokes at 0.5-2 m/s (seed 3, harder than the lag study's), their
+    speeds [m/s] and the isolated pairs' L/W: the convergence tests' strokes."""
+    rng = np.random.default_rng(3)
+    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (24, 28)))
+    speeds = rng.uniform(0.5, 2.0, 24)
+    return strokes, speeds, te.evaluate(strokes, speeds, options=ISOLATED).lift_to_weight
+
+
 def test_the_read_stations_converge_on_random_strokes(monkeypatch):
     """The other pair's field read at M = 4 stations and splined onto the elements converges
     towards a fine station grid (M = 24) on random strokes at 0.5-2 m/s, and lies closer to it
     than the six evenly spaced stations with linear interpolation it replaced (docs/model.md
     §5.8 item 9, *Read stations*)."""
     assert interaction.WAKE.read_points == 4
-    rng = np.random.default_rng(3)
-    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (24, 28)))
-    speeds = rng.uniform(0.5, 2.0, 24)
-    alone = te.evaluate(strokes, speeds, options=ISOLATED).lift_to_weight
+    strokes, speeds, alone = _random_flight()
 
     def lift(read_points: int) -> np.ndarray:
         monkeypatch.setattr(interaction, "WAKE", replace(interaction.WAKE, read_points=read_points))
@@ -218,10 +225,7 @@ def test_the_wake_grid_converges_on_random_strokes(monkeypatch):
     L/W converges in n_w: n_w = 16 (the default) and 32 lie a median of about 10 % and 2-3 % of that change
     from n_w = 64 (docs/model.md §5.8 item 9, *On random strokes*): the error falls at least
     2.5-fold per doubling, as a second-order quadrature's does fourfold."""
-    rng = np.random.default_rng(3)
-    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (24, 28)))
-    speeds = rng.uniform(0.5, 2.0, 24)
-    alone = te.evaluate(strokes, speeds, options=ISOLATED).lift_to_weight
+    strokes, speeds, alone = _random_flight()
     lift = {}
     for n_wake in (16, 32, 64):
         monkeypatch.setattr(interaction, "WAKE", replace(interaction.WAKE, n_wake=n_wake))
