@@ -21,13 +21,12 @@ from gymnasium.vector.utils import batch_space
 from ..physics import N_PARAMETERS, Result, evaluate, normalised_to_physical
 from ..physics.checks import count
 from ..physics.model import MAX_BATCH_STROKES
-from .columns import Columns, add_columns, row, take_columns
 from .config import FlightConfig
 from .declaration import TaskDeclaration
 from .problem import FlightProblem
 from .reference import ConfigReference
 from .render import Frame, LastStep, RenderWindow, frame_for
-from .step_batch import StepBatch
+from .step_batch import Columns, StepBatch, add_columns, row, take_columns
 from .validate import (
     RENDER_MODES,
     action_array,

@@ -53,7 +53,20 @@ class ProblemGradient:
 class FlightProblem:
     """Maximise a one-cycle task's objective over the normalised stroke box subject to its
     :attr:`constraints` (feasible: every violation exactly 0; a gradient-based optimiser holds
-    the signed margins >= 0), at a condition given with each evaluation."""
+    the signed margins >= 0), at a condition given with each evaluation.
+
+    Its attributes, set once: ``config`` (the env's: insect, model options, backend, device,
+    objective choice), ``declaration`` (the task's: condition, objectives, constraints),
+    ``condition`` (the declared condition every evaluation takes: keyword, unit, the model's
+    limits, the paper's envelope and sweep), ``objective_metric`` (the
+    :class:`~tandem_env.physics.Result` field maximised, e.g. ``"efficiency"``),
+    ``normalised_low`` / ``normalised_high`` (28,) (the action box's bounds), ``physical_low`` /
+    ``physical_high`` (28,) (their images, the insect's stroke bounds [Hz, deg, -], Table 4's
+    unless it sets its own), ``discrete`` (28,) bool (each wing's harmonic N), ``constraints``
+    (the declaration's, in the margins' column order), ``constraint_names`` (their violations'
+    ``info`` keys) and ``has_margins`` (every constraint declares a signed margin, what
+    :meth:`differentiate` and a gradient-based optimiser need). The arrays are read-only.
+    """
 
     #: Number of action coordinates (28).
     dim: int = N_PARAMETERS
@@ -62,72 +75,20 @@ class FlightProblem:
 
     def __init__(self, core: Any, normalised_low: float, normalised_high: float) -> None:
         self._core = core
-        self._low = np.full(N_PARAMETERS, float(normalised_low))
-        self._high = np.full(N_PARAMETERS, float(normalised_high))
-
-    # --- what the problem is -----------------------------------------------------------------
-    @property
-    def config(self) -> FlightConfig:
-        """The env's config: insect, model options, backend, device, objective choice."""
-        return self._core.config
-
-    @property
-    def declaration(self) -> TaskDeclaration:
-        """The task's declaration (condition, objectives, constraints)."""
-        return self._core.declaration
-
-    @property
-    def condition(self) -> TaskCondition:
-        """The declared condition every evaluation takes: its keyword, unit, the model's limits,
-        the paper's envelope and sweep."""
-        return self.config.declared_condition
-
-    @property
-    def objective_metric(self) -> str:
-        """The :class:`~tandem_env.physics.Result` field maximised, e.g. ``"efficiency"``."""
-        return self.config.objective_metric
-
-    @property
-    def normalised_low(self) -> np.ndarray:
-        """(28,) lower bounds of the normalised coordinates (the action box's)."""
-        return self._low.copy()
-
-    @property
-    def normalised_high(self) -> np.ndarray:
-        """(28,) upper bounds of the normalised coordinates (the action box's)."""
-        return self._high.copy()
-
-    @property
-    def physical_low(self) -> np.ndarray:
-        """(28,) the insect's lower stroke bounds [Hz, deg, -] (Table 4's unless it sets its
-        own), what :attr:`normalised_low` maps to."""
-        return np.array(self.config.insect.stroke_bounds.lower)
-
-    @property
-    def physical_high(self) -> np.ndarray:
-        """(28,) the insect's upper stroke bounds [Hz, deg, -], :attr:`normalised_high`'s image."""
-        return np.array(self.config.insect.stroke_bounds.upper)
-
-    @property
-    def discrete(self) -> np.ndarray:
-        """(28,) bool: the discrete coordinates (each wing's harmonic N)."""
-        return DISCRETE.copy()
-
-    @property
-    def constraints(self) -> tuple[Constraint, ...]:
-        """The task's constraints (its declaration's), in the margins' column order."""
-        return self.declaration.constraints
-
-    @property
-    def constraint_names(self) -> tuple[str, ...]:
-        """Each constraint's name (its violation's ``info`` key), in column order."""
-        return tuple(c.name for c in self.constraints)
-
-    @property
-    def has_margins(self) -> bool:
-        """Every constraint declares a signed margin (what :meth:`differentiate` and a
-        gradient-based optimiser need); a task without constraints has none to declare."""
-        return all(c.margin is not None for c in self.constraints)
+        self.config: FlightConfig = core.config
+        self.declaration: TaskDeclaration = core.declaration
+        self.condition: TaskCondition = self.config.declared_condition
+        self.objective_metric: str = self.config.objective_metric
+        bounds = self.config.insect.stroke_bounds
+        arrays = {"normalised_low": np.full(N_PARAMETERS, float(normalised_low))}
+        arrays["normalised_high"] = np.full(N_PARAMETERS, float(normalised_high))
+        arrays |= {"physical_low": np.array(bounds.lower), "physical_high": np.array(bounds.upper)}
+        for name, array in {**arrays, "discrete": DISCRETE.copy()}.items():
+            array.setflags(write=False)
+            setattr(self, name, array)
+        self.constraints: tuple[Constraint, ...] = self.declaration.constraints
+        self.constraint_names = tuple(c.name for c in self.constraints)
+        self.has_margins = all(c.margin is not None for c in self.constraints)
 
     # --- evaluation ---------------------------------------------------------------------------
     def evaluate(self, actions: np.ndarray, conditions: Any) -> ProblemEvaluation:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..physics import Dragonfly, ModelOptions, stroke_history
-from .columns import row
+from .step_batch import row
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -20,8 +20,8 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
 from .base import FlightVectorEnv
-from .columns import rows
 from .registration import check_env_id
+from .step_batch import rows
 
 
 class TandemVecEnv(VecEnv):
