@@ -13,9 +13,8 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import AVAILABLE_POWER_LIMITS, DRAGONFLY, SPEED_LIMITS, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import FlightConfig, normalise_condition
+from .config import FlightConfig, check_real, normalise_condition, store_checked
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
-from .validate import check_real, store_checked
 
 #: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
 SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass

@@ -21,14 +21,9 @@ from gymnasium.vector.utils import batch_space
 from ..physics import N_PARAMETERS, Result, evaluate, normalised_to_physical
 from ..physics.checks import count
 from ..physics.model import MAX_BATCH_STROKES
-from .config import FlightConfig
-from .declaration import TaskDeclaration
-from .problem import FlightProblem
-from .reference import ConfigReference
-from .render import Frame, LastStep, RenderWindow, frame_for
-from .step_batch import Columns, StepBatch, add_columns, row, take_columns
-from .validate import (
+from .config import (
     RENDER_MODES,
+    FlightConfig,
     action_array,
     action_values,
     build_config,
@@ -36,6 +31,11 @@ from .validate import (
     check_render_mode,
     reset_options,
 )
+from .declaration import TaskDeclaration
+from .problem import FlightProblem
+from .reference import ConfigReference
+from .render import Frame, LastStep, RenderWindow, frame_for
+from .step_batch import Columns, StepBatch, add_columns, row, take_columns
 
 RENDER_FPS = 4
 #: The ``metadata`` of every flight env; a vector env's adds its autoreset mode.
@@ -208,9 +208,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     @property
     def np_random_seed(self) -> tuple[int | None, ...]:  # type: ignore[override]
         """Each sub-env's seed."""
-        for i in range(self.num_envs):
-            self._rng(i)
-        return tuple(self._rng_seeds)
+        return tuple(self._rng_seeds[i] for i, _ in enumerate(self.np_random))
 
     @property
     def conditions(self) -> np.ndarray:
@@ -332,17 +330,13 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         options: dict[str, Any] | None = None,
     ) -> tuple[np.ndarray, dict[str, Any]]:
         n = self.num_envs
-        if seed is None:
-            seeds: list[int | None] = [None] * n
-        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise ValueError(
-                    f"If seeds are passed as a list the length must match num_envs={n} but got "
-                    f"length={len(seeds)}."
-                )
+        if seed is None or (isinstance(seed, int | np.integer) and not isinstance(seed, bool)):
+            seeds: list[int | None] = [None if seed is None else int(seed) + i for i in range(n)]
+        elif len(seeds := list(seed)) != n:
+            raise ValueError(
+                f"If seeds are passed as a list the length must match num_envs={n} but got "
+                f"length={len(seeds)}."
+            )
         options = dict(options) if options is not None else None
         if options is not None and "reset_mask" in options:
             mask = options.pop("reset_mask")

@@ -13,9 +13,14 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import SPEED_LIMITS, ModelOptions, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import MODEL_OPTION_KWARGS, FlightConfig, normalise_condition
+from .config import (
+    MODEL_OPTION_KWARGS,
+    FlightConfig,
+    check_real,
+    normalise_condition,
+    store_checked,
+)
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
-from .validate import check_real, store_checked
 
 
 # Each violation is max(0, −margin). The margins are array-agnostic (builtin abs, arithmetic):

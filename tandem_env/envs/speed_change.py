@@ -16,11 +16,11 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import SPEED_LIMITS
 from .base import EnvGenerators, EnvOptions, FlightEnv, FlightVectorEnv, fly
+from .config import reset_options
 from .dynamics import advance, cycle_time, flight_path, net_force
 from .render import Frame, LastStep, history_of
 from .speed_change_config import MAX_BAND_SPEED, SPEED_CHANGE, SpeedChangeConfig
 from .step_batch import Columns, StepBatch, row
-from .validate import reset_options
 
 #: What each observation entry is, in order (each mapped to [-1, 1], see ``observe``).
 OBSERVATION_NAMES: tuple[str, ...] = (

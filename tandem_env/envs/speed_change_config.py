@@ -8,10 +8,16 @@ from typing import Any, ClassVar
 
 from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
 from ..physics.stroke import WING_NAMES
-from .config import FlightConfig, fixed_or_sampled
+from .config import (
+    FlightConfig,
+    check_count,
+    check_interval,
+    check_real,
+    fixed_or_sampled,
+    store_checked,
+)
 from .declaration import POWER_CAP, TaskDeclaration
 from .level_flight import LEVEL_FLIGHT
-from .validate import check_count, check_interval, check_real, store_checked
 
 #: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
 #: envelope (``LEVEL_FLIGHT.condition.envelope``), where a steady level stroke exists.
