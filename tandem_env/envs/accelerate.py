@@ -139,4 +139,3 @@ class AccelerateEnv(FlightEnv):
 
     vector_class = AccelerateVectorEnv
     config: AccelerateConfig
-    title = "Accelerate"

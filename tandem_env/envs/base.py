@@ -359,48 +359,41 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n = self.num_envs
         actions = action_array(actions, (n, N_PARAMETERS))
-        clip = self.config.clip_actions
+        # next-step autoreset resets the ended sub-envs instead; Disabled refuses them (same-step
+        # autoreset has none: it resets them within the step that ended them, below)
+        resetting, stepping = np.flatnonzero(self._ended), np.flatnonzero(~self._ended)
+        if resetting.size and self.autoreset_mode == AutoresetMode.DISABLED:
+            raise RuntimeError(
+                f"sub-envs {resetting.tolist()} have ended their episodes; with "
+                "autoreset_mode=Disabled reset them first, e.g. "
+                "reset(options={'reset_mask': mask})"
+            )
         rewards = np.zeros(n, dtype=np.float64)
         terminations = np.zeros(n, dtype=np.bool_)
         truncations = np.zeros(n, dtype=np.bool_)
         infos: dict[str, Any] = {}
-
-        def fly_envs(index: np.ndarray) -> tuple[Any, np.ndarray]:
-            batch, final = self.step_checked(index, action_values(actions[index], clip))
-            rewards[index] = batch.reward
-            terminations[index] = batch.terminated
-            truncations[index] = batch.truncated
-            return batch, final
-
-        if self.autoreset_mode == AutoresetMode.SAME_STEP:
-            batch, final = fly_envs(np.arange(n))
-            ended = terminations | truncations
-            columns = batch.info_columns()
-            running, done = np.flatnonzero(~ended), np.flatnonzero(ended)
-            if running.size:
-                add_columns(infos, take_columns(columns, running), running, n)
-            if done.size:
+        if stepping.size:
+            arr = action_values(actions[stepping], self.config.clip_actions)
+            batch, final = self.step_checked(stepping, arr)
+            rewards[stepping] = batch.reward
+            terminations[stepping] = batch.terminated
+            truncations[stepping] = batch.truncated
+            columns, ended = batch.info_columns(), batch.terminated | batch.truncated
+            ended &= self.autoreset_mode == AutoresetMode.SAME_STEP
+            if not ended.all():
+                add_columns(infos, take_columns(columns, ~ended), stepping[~ended], n)
+            if ended.any():  # same-step: the final observations and infos, then the resets
+                done, mask = stepping[ended], np.isin(np.arange(n), stepping[ended])
                 final_obs = np.full(n, None, dtype=object)
-                for i in done:
-                    final_obs[i] = final[i]
-                infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
-                infos["final_info"] = add_columns({}, take_columns(columns, done), done, n)
-                infos["_final_info"] = ended.copy()
+                for i, observation in zip(done, final[ended], strict=True):
+                    final_obs[i] = observation
+                infos["final_obs"], infos["_final_obs"] = final_obs, mask
+                infos["final_info"] = add_columns({}, take_columns(columns, ended), done, n)
+                infos["_final_info"] = mask.copy()
                 add_columns(infos, self.autoreset(done), done, n)
-        else:  # next-step autoreset resets the ended sub-envs instead; Disabled refuses them
-            resetting, stepping = np.flatnonzero(self._ended), np.flatnonzero(~self._ended)
-            if resetting.size and self.autoreset_mode == AutoresetMode.DISABLED:
-                raise RuntimeError(
-                    f"sub-envs {resetting.tolist()} have ended their episodes; with "
-                    "autoreset_mode=Disabled reset them first, e.g. "
-                    "reset(options={'reset_mask': mask})"
-                )
-            if stepping.size:
-                batch, _ = fly_envs(stepping)
-                add_columns(infos, batch.info_columns(), stepping, n)
-            if resetting.size:
-                columns = self.reset_envs(resetting, [None] * resetting.size, None)
-                add_columns(infos, columns, resetting, n)
+        if resetting.size:
+            columns = self.reset_envs(resetting, [None] * resetting.size, None)
+            add_columns(infos, columns, resetting, n)
 
         if self.render_mode == "human":
             self.render()
@@ -410,20 +403,18 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         """rgb_array: one frame per sub-env (costly for large n); human: sub-env 0 in a window."""
         if self.render_mode is None:
             return None
-        title = self.spec.id if self.spec is not None else type(self).__name__
-        if self.render_mode == "rgb_array":
-            return tuple(
-                self._show(self.frame(i, f"{title} [env {i}]")) for i in range(self.num_envs)
-            )  # type: ignore[return-value]
-        self._show(self.frame(0, f"{title} [env 0]"))
-        return None
+        title, count = self._title(), self.num_envs if self.render_mode == "rgb_array" else 1
+        frames = tuple(self._show(self.frame(i, f"{title} [env {i}]")) for i in range(count))
+        return frames if self.render_mode == "rgb_array" else None  # type: ignore[return-value]
 
     def close_extras(self, **kwargs: Any) -> None:
         self._close_window()
 
+    def _title(self) -> str:
+        return self.spec.id if self.spec is not None else type(self).__name__
+
     def __repr__(self) -> str:
-        name = self.spec.id if self.spec is not None else type(self).__name__
-        return f"{type(self).__name__}({name}, num_envs={self.num_envs})"
+        return f"{type(self).__name__}({self._title()}, num_envs={self.num_envs})"
 
 
 class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
@@ -434,8 +425,6 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     vector_class: ClassVar[type[FlightVectorEnv]] = FlightVectorEnv
     #: The task's config class (``vector_class.config_class``), for the registry's look-ups.
     config_class: ClassVar[type[FlightConfig]] = FlightConfig
-    title: ClassVar[str] = "Flight"
-    """Name in render titles when the env was not made by ``gym.make`` (no spec)."""
     vector_env: FlightVectorEnv
     """The vector env this env steps: ``vector_class`` with ``num_envs=1``, autoreset disabled."""
 
@@ -493,7 +482,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
                 f"render_mode in {list(RENDER_MODES)}"
             )
             return None
-        title = self.spec.id if self.spec is not None else self.title
+        title = self.spec.id if self.spec is not None else self.config.name  # the task's name
         return self._show(self.vector_env.frame(0, title))
 
     def close(self) -> None:

@@ -134,7 +134,6 @@ class LevelFlightEnv(FlightEnv):
 
     vector_class = LevelFlightVectorEnv
     config: LevelFlightConfig
-    title = "LevelFlight"
 
 
 def model_option_keywords() -> str:

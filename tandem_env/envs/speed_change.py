@@ -6,9 +6,7 @@ vector env and the single env; declaration and config: :mod:`~tandem_env.envs.sp
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -112,9 +110,15 @@ class SpeedChangeCore:
         """States of ``count`` new episodes: u = u₀, w = w₀ (0), h = 0, target u*; episode k
         draws u₀, then u*, from ``rngs(k)`` where sampled and not set by ``options[k]``."""
         cfg = self.config
+        low, high = cfg.speed_envelope
+        ranges = {  # key -> (low, high, unit, what the range is)
+            "start_speed": (low, high, "m/s", "the speed envelope"),
+            "target_speed": (low, high, "m/s", "the speed envelope"),
+            "vertical_speed": (-MAX_BAND_SPEED, MAX_BAND_SPEED, "m/s", "the range"),
+        }
         flight = Flight.empty(count)
         for k in range(count):
-            given = self._options(options[k])
+            given = reset_options(cfg.name, options[k], ranges, {})
             for name, state in (("start_speed", "forward_speed"), ("target_speed", "target_speed")):
                 if name in given:
                     value = given[name]
@@ -123,19 +127,9 @@ class SpeedChangeCore:
                 else:
                     value = rngs(k).uniform(*getattr(cfg, f"{name}_range"))
                 getattr(flight, state)[k] = value
-            # Within ±MAX_BAND_SPEED (checked in _options), as u is within the band.
+            # Within ±MAX_BAND_SPEED (checked above), as u is within the band.
             flight.vertical_speed[k] = given.get("vertical_speed", 0.0)
         return flight
-
-    def _options(self, options: Mapping[str, Any] | None) -> dict[str, float]:
-        cfg = self.config
-        low, high = cfg.speed_envelope
-        ranges = {  # key -> (low, high, unit, what the range is)
-            "start_speed": (low, high, "m/s", "the speed envelope"),
-            "target_speed": (low, high, "m/s", "the speed envelope"),
-            "vertical_speed": (-MAX_BAND_SPEED, MAX_BAND_SPEED, "m/s", "the range"),
-        }
-        return reset_options(cfg.name, options, ranges, {})
 
     def observe(self, flight: Flight) -> np.ndarray:
         """(B, 5) float32 observations (:data:`OBSERVATION_NAMES`), clipped to [-1, 1]: u over
@@ -304,7 +298,6 @@ class SpeedChangeEnv(FlightEnv):
     vector_class = SpeedChangeVectorEnv
     vector_env: SpeedChangeVectorEnv
     config: SpeedChangeConfig
-    title = "SpeedChange"
 
     @property
     def flight(self) -> Flight | None:

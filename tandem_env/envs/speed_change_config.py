@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar
 
 from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
@@ -57,30 +57,21 @@ class SpeedChangeReward:
     time integrals (docs/envs.md). A weight of 0 switches a term off.
     """
 
-    progress: float = 1.0
+    progress: float = field(default=1.0, metadata={"unit": "1/(m/s)"})
     """Per m/s of speed error removed [1/(m/s)]."""
-    speed: float = 1.0
+    speed: float = field(default=1.0, metadata={"unit": "1/m"})
     """Per metre of speed error × time [1/m] (1 (m/s)·s of error costs 1)."""
-    altitude: float = 2.0
+    altitude: float = field(default=2.0, metadata={"unit": "1/(m·s)"})
     """Per metre-second of altitude error [1/(m·s)]."""
-    energy: float = 50.0
+    energy: float = field(default=50.0, metadata={"unit": "1/J"})
     """Per joule spent by the wings [1/J]: level flight at 40 W/kg for 1.3 s costs about 0.3."""
-    termination: float = 0.2
+    termination: float = field(default=0.2, metadata={"unit": "per cycle not flown"})
     """Per cycle not flown when the episode terminates early: above the most a cycle inside
     the bands costs (:meth:`SpeedChangeConfig.max_cycle_cost`, ≈ 0.14)."""
 
-    TERMS: ClassVar[tuple[str, ...]] = ("progress", "speed", "altitude", "energy", "termination")
-    UNITS: ClassVar[dict[str, str]] = {
-        "progress": "1/(m/s)",
-        "speed": "1/m",
-        "altitude": "1/(m·s)",
-        "energy": "1/J",
-        "termination": "per cycle not flown",
-    }
-
     def __post_init__(self) -> None:
-        for name in self.TERMS:
-            store_checked(self, name, check_real, f"[{self.UNITS[name]}]", 0.0, 1e9)
+        for term in fields(self):
+            store_checked(self, term.name, check_real, f"[{term.metadata['unit']}]", 0.0, 1e9)
 
     @classmethod
     def build(cls, value: Any) -> SpeedChangeReward:
@@ -89,17 +80,18 @@ class SpeedChangeReward:
             return cls()
         if isinstance(value, cls):
             return value
+        terms = [term.name for term in fields(cls)]
         if isinstance(value, Mapping):
-            unknown = sorted(set(value) - set(cls.TERMS))
+            unknown = sorted(set(value) - set(terms))
             if unknown:
                 raise ValueError(
                     f"SpeedChange: unknown reward term(s) {', '.join(map(repr, unknown))}; "
-                    f"allowed: {', '.join(cls.TERMS)} (weights >= 0)"
+                    f"allowed: {', '.join(terms)} (weights >= 0)"
                 )
             return cls(**value)
         raise ValueError(
             f"SpeedChange: reward = {value!r}; allowed: a SpeedChangeReward or a dict of weights "
-            f"for the terms {', '.join(cls.TERMS)}"
+            f"for the terms {', '.join(terms)}"
         )
 
 
