@@ -26,7 +26,6 @@ from .config import (
     FlightConfig,
     action_array,
     action_values,
-    build_config,
     check_actions,
     check_render_mode,
     reset_options,
@@ -178,7 +177,17 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         self.num_envs = int(num_envs)
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
-        self.config = build_config(self.config_class, config, kwargs)
+        if config is None:
+            config = self.config_class.from_kwargs(**kwargs)
+        elif kwargs:
+            raise ValueError(
+                f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
+            )
+        elif not isinstance(config, self.config_class):
+            raise ValueError(
+                f"config = {config!r}; allowed: a {self.config_class.__name__} (or keyword options)"
+            )
+        self.config = config
         self.core = self.core_class(self.config)
         self.single_action_space = action_space()
         self.single_observation_space = self._observation_space()

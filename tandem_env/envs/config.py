@@ -13,13 +13,13 @@ import math
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields, replace
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from ..physics import N_PARAMETERS, PARAMETER_NAMES, PLANFORMS, Dragonfly, ModelOptions
 from ..physics.backends import check_backend
-from ..physics.checks import is_integer, is_real, real_array, shown
+from ..physics.checks import is_real, real_array, shown
 from ..physics.insect import insect_mapping, load_insect
 from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations
 
@@ -324,9 +324,6 @@ class FlightConfig:
 
 
 # --- the env layer's validators ------------------------------------------------------------
-#: A task's config class (``FlightConfig`` or a subclass).
-Config = TypeVar("Config")
-
 RENDER_MODES: tuple[str, ...] = ("human", "rgb_array")
 
 
@@ -339,15 +336,6 @@ def check_real(owner: str, name: str, value: Any, unit: str, low: float, high: f
             f"{high:g}{unit}"
         )
     return float(value)
-
-
-def check_count(owner: str, name: str, value: Any, low: int, high: int, what: str) -> int:
-    """``value`` as an int if it is an integer in [low, high]; else a ValueError."""
-    if not is_integer(value) or not low <= value <= high:
-        raise ValueError(
-            f"{owner}.{name} = {value!r}; allowed: an integer from {low} to {high} ({what})"
-        )
-    return int(value)
 
 
 def check_interval(
@@ -459,21 +447,3 @@ def reset_options(
             )
         values[key] = float(value)
     return values
-
-
-def build_config(
-    config_class: type[Config], config: Config | None, kwargs: dict[str, Any]
-) -> Config:
-    """The env's config: ``config`` as given, or built from the ``gym.make`` kwargs
-    (``config_class.from_kwargs``)."""
-    if config is None:
-        return config_class.from_kwargs(**kwargs)  # type: ignore[attr-defined, no-any-return]
-    if kwargs:
-        raise ValueError(
-            f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
-        )
-    if not isinstance(config, config_class):
-        raise ValueError(
-            f"config = {config!r}; allowed: a {config_class.__name__} (or keyword options)"
-        )
-    return config

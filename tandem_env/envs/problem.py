@@ -95,16 +95,16 @@ class FlightProblem:
         """B normalised strokes (B, 28) at ``conditions`` (one or (B,) values, the condition's
         unit) in ONE model call, scored as the env scores a step; ValueError for a bad shape,
         a stroke outside the box or a condition the model refuses."""
-        strokes = self._actions(actions)
-        values = self._conditions(conditions, strokes.shape[0])
+        strokes, values = self._inputs(actions, conditions)
         bounds = self.config.insect.stroke_bounds
         batch = self._core.step(normalised_to_physical(strokes, bounds), values)
-        return ProblemEvaluation(
-            objective=np.asarray(batch.objective, dtype=np.float64),
-            margins=self._margins(batch.result),
-            feasible=np.asarray(batch.feasible, dtype=bool),
-            result=batch.result,
-        )
+        margins = None  # (B, m); None where a constraint declares none
+        if self.has_margins:
+            margins = np.array([c.margin(batch.result, self.config) for c in self.constraints])
+            margins = margins.reshape(-1, len(strokes)).T
+        objective = np.asarray(batch.objective, dtype=np.float64)
+        feasible = np.asarray(batch.feasible, dtype=bool)
+        return ProblemEvaluation(objective, margins, feasible, batch.result)
 
     def differentiate(self, actions: np.ndarray, conditions: Any) -> ProblemGradient:
         """:meth:`evaluate` with the objective's gradient and the margins' Jacobian w.r.t. the
@@ -118,9 +118,9 @@ class FlightProblem:
                 f"{self.declaration.name}: constraints {missing} declare no margin; allowed: "
                 "differentiate a task whose every constraint has one (Constraint.margin)"
             )
-        strokes = self._actions(actions)
+        strokes, values = self._inputs(actions, conditions)
         config = self.config
-        speed, power = self._core.flight_conditions(self._conditions(conditions, strokes.shape[0]))
+        speed, power = self._core.flight_conditions(values)
         metric = config.objective_metric
         functions = [lambda result: getattr(result, metric)]
         functions += [lambda result, c=c: c.margin(result, config) for c in self.constraints]
@@ -128,41 +128,26 @@ class FlightProblem:
         result, values, jacobian = torch_model.normalised_jacobian(
             strokes, functions, speed, power, **model
         )
-        evaluation = ProblemEvaluation(
-            objective=values[:, 0],
-            margins=values[:, 1:],
-            feasible=np.asarray(self.declaration.score(result, config).feasible, dtype=bool),
-            result=result,
-        )
+        feasible = np.asarray(self.declaration.score(result, config).feasible, dtype=bool)
+        evaluation = ProblemEvaluation(values[:, 0], values[:, 1:], feasible, result)
         return ProblemGradient(evaluation, jacobian[:, 0], jacobian[:, 1:])
 
-    # --- checks -------------------------------------------------------------------------------
-    def _margins(self, result: Result) -> np.ndarray | None:
-        """(B, m) the constraints' margins on ``result``; None where one declares none."""
-        if not self.has_margins:
-            return None
-        if not self.constraints:
-            return np.zeros((result.power.shape[0], 0))
-        return np.column_stack([c.margin(result, self.config) for c in self.constraints])
-
-    def _actions(self, actions: np.ndarray) -> np.ndarray:
+    def _inputs(self, actions: Any, conditions: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(strokes (B, 28), conditions (B,)), checked."""
         strokes = np.asarray(actions, dtype=np.float64)
         if strokes.ndim != 2 or strokes.shape[1] != N_PARAMETERS:
             raise ValueError(
                 f"actions of shape {strokes.shape}; allowed: (B, {N_PARAMETERS}) normalised strokes"
             )
-        return strokes
-
-    def _conditions(self, conditions: Any, count: int) -> np.ndarray:
-        values = np.asarray(conditions, dtype=np.float64)
+        count, values = len(strokes), np.asarray(conditions, dtype=np.float64)
         if values.ndim == 0:
-            return np.full(count, float(values))
+            return strokes, np.full(count, float(values))
         if values.shape != (count,):
             raise ValueError(
                 f"conditions of shape {values.shape} for {count} strokes; allowed: one "
                 f"{self.condition.keyword} [{self.condition.unit}] or one per stroke ({count},)"
             )
-        return values
+        return strokes, values
 
     def __repr__(self) -> str:
         return (

@@ -102,18 +102,6 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
     return side, angle_axes
 
 
-def to_rgb_array(frame: Frame) -> np.ndarray:
-    """The frame as an (H, W, 3) uint8 image, drawn off-screen with Agg."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=_FIGURE_SIZE, dpi=FRAME_DPI)
-    canvas = FigureCanvasAgg(figure)
-    draw(figure, frame)
-    canvas.draw()
-    return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
-
-
 def metrics_line(reward: float, info: dict[str, Any], objective_label: str) -> str:
     """The subtitle: "reward … | objective … | L/W … | F̄_h … | P/m … | feasible"."""
     infeasible = f"infeasible (violation {info['constraint_violation']:.3g})"
@@ -167,8 +155,14 @@ class RenderWindow:
 
     def _show(self, frame: Frame) -> np.ndarray | None:
         """``frame`` as an RGB array (``render_mode="rgb_array"``) or in the window (``"human"``)."""
-        if self.render_mode == "rgb_array":  # type: ignore[attr-defined]
-            return to_rgb_array(frame)
+        if self.render_mode == "rgb_array":  # type: ignore[attr-defined]  # drawn off-screen
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from matplotlib.figure import Figure
+
+            canvas = FigureCanvasAgg(Figure(figsize=_FIGURE_SIZE, dpi=FRAME_DPI))
+            draw(canvas.figure, frame)
+            canvas.draw()
+            return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
         import matplotlib
         import matplotlib.pyplot as plt
 

@@ -7,10 +7,10 @@ from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar
 
 from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
+from ..physics.checks import is_integer
 from ..physics.stroke import WING_NAMES
 from .config import (
     FlightConfig,
-    check_count,
     check_interval,
     check_real,
     fixed_or_sampled,
@@ -140,9 +140,12 @@ class SpeedChangeConfig(FlightConfig):
         envelope = store_checked(self, "speed_envelope", check_interval, "m/s", SPEED_LIMITS)
         fixed_or_sampled(self, "start_speed", "speed_envelope", "m/s", None)
         fixed_or_sampled(self, "target_speed", "speed_envelope", "m/s", None)
-        store_checked(
-            self, "max_cycles", check_count, 1, MAX_CYCLES, "wing-beat cycles per episode"
-        )
+        if not is_integer(self.max_cycles) or not 1 <= self.max_cycles <= MAX_CYCLES:
+            raise ValueError(
+                f"{owner}.max_cycles = {self.max_cycles!r}; allowed: an integer from 1 to "
+                f"{MAX_CYCLES} (wing-beat cycles per episode)"
+            )
+        object.__setattr__(self, "max_cycles", int(self.max_cycles))
         band = check_interval(
             owner, "forward_speed_band", self.forward_speed_band, "m/s", SPEED_LIMITS
         )
