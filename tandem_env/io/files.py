@@ -169,7 +169,12 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     tmp = Path(tmp_name)
     try:
         yield tmp
-        os.chmod(tmp, _replacement_mode(path))
+        try:
+            mode = stat.S_IMODE(path.stat().st_mode)
+        except OSError:  # no file yet (or none that can be looked at)
+            mode = 0
+        owner = stat.S_IRUSR | stat.S_IWUSR
+        os.chmod(tmp, mode if mode & owner == owner else new_file_mode())
         with open(tmp, "ab") as handle:
             os.fsync(handle.fileno())
         os.replace(tmp, path)
@@ -230,15 +235,6 @@ class FolderLock:
         self.release()
 
 
-def _replacement_mode(path: Path) -> int:
-    try:
-        mode = stat.S_IMODE(path.stat().st_mode)
-    except OSError:  # no file yet (or none that can be looked at)
-        return new_file_mode()
-    owner = stat.S_IRUSR | stat.S_IWUSR
-    return mode if mode & owner == owner else new_file_mode()
-
-
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_path`)."""
     with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as handle:
@@ -272,14 +268,7 @@ def write_csv_atomic(path: str | os.PathLike[str], rows: Sequence[Mapping[str, A
         writer = csv.DictWriter(buffer, fieldnames=list(columns), lineterminator="\n")
         writer.writeheader()
         for row in rows:
-            writer.writerow({key: _csv_cell(value) for key, value in row.items()})
+            cells = {key: to_jsonable(value) for key, value in row.items()}
+            text = {k: json.dumps(v) for k, v in cells.items() if isinstance(v, list | dict)}
+            writer.writerow({**cells, **text})  # None an empty cell, as csv writes it
     write_text_atomic(Path(path), buffer.getvalue())
-
-
-def _csv_cell(value: Any) -> Any:
-    value = to_jsonable(value)
-    if value is None:
-        return ""
-    if isinstance(value, list | dict):
-        return json.dumps(value)
-    return value
