@@ -13,7 +13,7 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import AVAILABLE_POWER_LIMITS, DRAGONFLY, SPEED_LIMITS, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import FlightConfig, check_real, normalise_condition, store_checked
+from .config import FlightConfig, check_real, store_checked
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 
 #: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
@@ -98,7 +98,6 @@ class AccelerateConfig(FlightConfig):
                 f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, choices))}"
             )
         store_checked(self, "speed", check_real, "m/s", *SPEED_LIMITS)
-        normalise_condition(self)
 
     def describe(self) -> str:
         return f"{super().describe()}, V = {self.speed:g} m/s, objective {self.objective}"

@@ -217,6 +217,8 @@ class FlightConfig:
             raise ValueError(f"{owner}: {error}") from None
         object.__setattr__(self, "backend", backend)
         object.__setattr__(self, "device", device)
+        if self.CONDITION is not None:  # its envelope, fixed value or range
+            normalise_condition(self)
 
     # --- the observed flight condition (read from the fields CONDITION names) ---------------
     @property

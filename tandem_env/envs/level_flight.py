@@ -13,13 +13,7 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import SPEED_LIMITS, ModelOptions, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import (
-    MODEL_OPTION_KWARGS,
-    FlightConfig,
-    check_real,
-    normalise_condition,
-    store_checked,
-)
+from .config import MODEL_OPTION_KWARGS, FlightConfig, check_real, store_checked
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 
 
@@ -77,7 +71,6 @@ class LevelFlightConfig(FlightConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        normalise_condition(self)
         store_checked(self, "constraint_tolerance", check_real, "", 0.0, 0.999)
 
     @property

@@ -165,11 +165,9 @@ class ReferenceTable:
                 "allowed: one series per task, objective and planform"
                 + (", all of them" if complete else "")
             )
-        for entry in series:
+        for entry in series if complete else ():
             grid = REFERENCE_GRID[entry.env_id][1]
-            if complete and (
-                entry.conditions != grid or not all(p["feasible"] is True for p in entry.points)
-            ):
+            if entry.conditions != grid or not all(p["feasible"] is True for p in entry.points):
                 raise ValueError(
                     f"{entry.env_id} {entry.objective} {entry.planform}: conditions "
                     f"{list(entry.conditions)}, not a feasible optimum at every point of the "
@@ -214,14 +212,10 @@ def _series(entry: Any) -> ReferenceSeries:
                 f"{where}: normalised_stroke of shape {stroke.shape}; allowed: 28 finite numbers "
                 "in [-1, 1]"
             )
+    objectives = tuple(float(p["objective"]) if p["feasible"] else math.nan for p in points)
+    conditions = tuple(float(c) for c in conditions)
     return ReferenceSeries(
-        env_id=env_id,
-        objective=objective,
-        planform=planform,
-        fingerprint=entry["fingerprint"],
-        conditions=tuple(float(c) for c in conditions),
-        objectives=tuple(float(p["objective"]) if p["feasible"] else math.nan for p in points),
-        points=points,
+        env_id, objective, planform, entry["fingerprint"], conditions, objectives, points
     )
 
 

@@ -9,13 +9,7 @@ from typing import Any, ClassVar
 from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
 from ..physics.checks import is_integer
 from ..physics.stroke import WING_NAMES
-from .config import (
-    FlightConfig,
-    check_interval,
-    check_real,
-    fixed_or_sampled,
-    store_checked,
-)
+from .config import FlightConfig, check_interval, check_real, fixed_or_sampled, store_checked
 from .declaration import POWER_CAP, TaskDeclaration
 from .level_flight import LEVEL_FLIGHT
 
@@ -146,9 +140,7 @@ class SpeedChangeConfig(FlightConfig):
                 f"{MAX_CYCLES} (wing-beat cycles per episode)"
             )
         object.__setattr__(self, "max_cycles", int(self.max_cycles))
-        band = check_interval(
-            owner, "forward_speed_band", self.forward_speed_band, "m/s", SPEED_LIMITS
-        )
+        band = store_checked(self, "forward_speed_band", check_interval, "m/s", SPEED_LIMITS)
         if band[1] > MAX_BAND_SPEED:
             raise ValueError(
                 f"{owner}.forward_speed_band = {self.forward_speed_band!r} m/s; allowed: a band "
@@ -162,7 +154,6 @@ class SpeedChangeConfig(FlightConfig):
                     f"{owner}.speed_envelope {end} = {value:g} m/s; allowed: a speed inside "
                     f"{owner}.forward_speed_band = ({band[0]:g}, {band[1]:g}) m/s"
                 )
-        object.__setattr__(self, "forward_speed_band", band)
         for name, unit in (("altitude_band", "m"), ("vertical_speed_scale", "m/s")):
             store_checked(self, name, check_real, unit, 1e-6, 1e3)
         object.__setattr__(self, "reward", SpeedChangeReward.build(self.reward))
