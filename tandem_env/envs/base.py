@@ -111,12 +111,8 @@ class FlightCore:
         values = np.empty(count)
         for k in range(count):
             given = reset_options(cfg.name, options[k], {key: where}, self._renamed)
-            if given:
-                values[k] = given[key]
-            elif cfg.condition_range is None:
-                values[k] = cfg.fixed_condition
-            else:
-                values[k] = rngs(k).uniform(*cfg.condition_range)
+            value = given.get(key, cfg.fixed_condition)  # None: sampled
+            values[k] = rngs(k).uniform(*cfg.condition_range) if value is None else value
         return values
 
     def observe(self, values: np.ndarray) -> np.ndarray:

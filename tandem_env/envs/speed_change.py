@@ -120,11 +120,8 @@ class SpeedChangeCore:
         for k in range(count):
             given = reset_options(cfg.name, options[k], ranges, {})
             for name, state in (("start_speed", "forward_speed"), ("target_speed", "target_speed")):
-                if name in given:
-                    value = given[name]
-                elif getattr(cfg, name) is not None:
-                    value = getattr(cfg, name)
-                else:
+                value = given.get(name, getattr(cfg, name))  # None: sampled
+                if value is None:
                     value = rngs(k).uniform(*getattr(cfg, f"{name}_range"))
                 getattr(flight, state)[k] = value
             # Within ±MAX_BAND_SPEED (checked above), as u is within the band.
@@ -169,15 +166,8 @@ class SpeedChangeCore:
         fx, fz = net_force(result, cfg.insect)
         before = (flight.forward_speed, flight.vertical_speed, flight.distance, flight.altitude)
         u, w, x, h = advance(*before, fx, fz, cfg.insect.body_mass, dt)
-        after = Flight(
-            forward_speed=u,
-            vertical_speed=w,
-            altitude=h,
-            distance=x,
-            time=flight.time + dt,
-            target_speed=flight.target_speed.copy(),
-            cycle=flight.cycle + 1,
-        )
+        # the state after: u, w, h, x, the time, the same target u* and the cycle count
+        after = Flight(u, w, h, x, flight.time + dt, flight.target_speed.copy(), flight.cycle + 1)
         low, high = cfg.forward_speed_band
         left_altitude = np.abs(h) > cfg.altitude_band
         left_speed = (u < low) | (u > high) | (np.hypot(u, w) > SPEED_LIMITS[1])
