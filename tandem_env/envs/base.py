@@ -472,13 +472,8 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         batch, observations = self.vector_env.step_checked(_FIRST, arr[None, :])
         if self.render_mode == "human":
             self.render()
-        return (
-            observations[0].copy(),
-            float(batch.reward[0]),
-            bool(batch.terminated[0]),
-            bool(batch.truncated[0]),
-            row(batch.info_columns(), 0),
-        )
+        ended = bool(batch.terminated[0]), bool(batch.truncated[0])
+        return observations[0].copy(), float(batch.reward[0]), *ended, row(batch.info_columns(), 0)
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:

@@ -28,10 +28,7 @@ _FIGURE_SIZE = (FRAME_SIZE[0] / FRAME_DPI, FRAME_SIZE[1] / FRAME_DPI)  # [in]
 HISTORY_SAMPLES = 120
 
 #: Line style of each wing in the frames.
-WING_STYLE: dict[str, dict[str, str]] = {
-    "fore": {"color": "tab:blue"},
-    "hind": {"color": "tab:red"},
-}
+WING_STYLE = {"fore": {"color": "tab:blue"}, "hind": {"color": "tab:red"}}
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
 

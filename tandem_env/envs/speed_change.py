@@ -21,13 +21,7 @@ from .speed_change_config import MAX_BAND_SPEED, SPEED_CHANGE, SpeedChangeConfig
 from .step_batch import Columns, StepBatch, row
 
 #: What each observation entry is, in order (each mapped to [-1, 1], see ``observe``).
-OBSERVATION_NAMES: tuple[str, ...] = (
-    "forward_speed",
-    "vertical_speed",
-    "altitude",
-    "target_speed",
-    "cycles_left",
-)
+OBSERVATION_NAMES = ("forward_speed", "vertical_speed", "altitude", "target_speed", "cycles_left")
 
 
 @dataclass(frozen=True)
@@ -137,17 +131,14 @@ class SpeedChangeCore:
         def scaled(value: np.ndarray, band: tuple[float, float]) -> np.ndarray:
             return 2.0 * (value - band[0]) / (band[1] - band[0]) - 1.0
 
-        obs = np.stack(
-            [
-                scaled(flight.forward_speed, cfg.forward_speed_band),
-                flight.vertical_speed / cfg.vertical_speed_scale,
-                flight.altitude / cfg.altitude_band,
-                scaled(flight.target_speed, cfg.speed_envelope),
-                scaled((cfg.max_cycles - flight.cycle).astype(np.float64), (0.0, cfg.max_cycles)),
-            ],
-            axis=1,
-        )
-        return np.clip(obs, -1.0, 1.0).astype(np.float32)
+        columns = [
+            scaled(flight.forward_speed, cfg.forward_speed_band),
+            flight.vertical_speed / cfg.vertical_speed_scale,
+            flight.altitude / cfg.altitude_band,
+            scaled(flight.target_speed, cfg.speed_envelope),
+            scaled((cfg.max_cycles - flight.cycle).astype(np.float64), (0.0, cfg.max_cycles)),
+        ]
+        return np.clip(np.stack(columns, axis=1), -1.0, 1.0).astype(np.float32)
 
     def reset_columns(self, flight: Flight) -> Columns:
         """Reset info columns: the start state and the power cap."""
