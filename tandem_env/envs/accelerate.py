@@ -91,12 +91,6 @@ class AccelerateConfig(FlightConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        owner = type(self).__name__
-        choices = _OBJECTIVES.choices
-        if self.objective not in choices:
-            raise ValueError(
-                f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, choices))}"
-            )
         store_checked(self, "speed", check_real, "m/s", *SPEED_LIMITS)
 
     def describe(self) -> str:

@@ -30,7 +30,7 @@ from .config import (
     check_render_mode,
     reset_options,
 )
-from .declaration import TaskDeclaration
+from .declaration import TaskDeclaration, refusal
 from .problem import FlightProblem
 from .reference import ConfigReference
 from .render import Frame, LastStep, RenderWindow, frame_for
@@ -180,9 +180,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
                 f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
             )
         elif not isinstance(config, self.config_class):
-            raise ValueError(
-                f"config = {config!r}; allowed: a {self.config_class.__name__} (or keyword options)"
-            )
+            raise refusal("config", config, f"a {self.config_class.__name__} (or keyword options)")
         self.config = config
         self.core = self.core_class(self.config)
         self.single_action_space = action_space()

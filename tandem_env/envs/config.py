@@ -21,7 +21,7 @@ from ..physics import N_PARAMETERS, PARAMETER_NAMES, PLANFORMS, Dragonfly, Model
 from ..physics.backends import check_backend
 from ..physics.checks import is_real, real_array, shown
 from ..physics.insect import insect_mapping, load_insect
-from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations
+from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations, refusal
 
 #: ``ModelOptions`` fields whose ``gym.make`` keyword differs from the field's name: ``power``
 #: was Accelerate's old condition name, so the power accounting is ``power_convention`` there.
@@ -113,9 +113,7 @@ def fixed_or_sampled(
     else:
         value = default if fixed is None else fixed
         if not (is_real(value) and envelope[0] <= value <= envelope[1]):  # NaN fails it
-            raise ValueError(
-                f"{owner}.{name} = {value!r} {unit}; allowed: a finite number {inside}"
-            )
+            raise refusal(f"{owner}.{name}", value, f"a finite number {inside}", unit)
         object.__setattr__(config, name, float(value))
 
 
@@ -217,6 +215,10 @@ class FlightConfig:
             raise ValueError(f"{owner}: {error}") from None
         object.__setattr__(self, "backend", backend)
         object.__setattr__(self, "device", device)
+        chosen = self.OBJECTIVES.keyword if self.OBJECTIVES is not None else None
+        if chosen is not None and getattr(self, chosen) not in self.OBJECTIVES.choices:
+            allowed = ", ".join(map(repr, self.OBJECTIVES.choices))
+            raise refusal(f"{owner}.{chosen}", getattr(self, chosen), allowed)
         if self.CONDITION is not None:  # its envelope, fixed value or range
             normalise_condition(self)
 
@@ -272,7 +274,7 @@ class FlightConfig:
         """Build the config from the ``gym.make`` kwargs: the fields, ``planform`` and
         ``rotational_coefficient`` (C_r of both wings [-], Table 3) over ``insect``, every
         :data:`MODEL_OPTION_KWARGS` over ``options``, ``penalty_weight`` / ``penalty_offset``
-        over ``penalty``; a condition's old keyword is refused naming the new one."""
+        over ``penalty``; a condition's old keyword is refusal naming the new one."""
         renamed = cls.CONDITION.renamed() if cls.CONDITION is not None else {}
         old = sorted(set(kwargs) & set(renamed))
         if old:
@@ -291,10 +293,7 @@ class FlightConfig:
         if "planform" in kwargs:
             planform = kwargs.pop("planform")
             if planform not in PLANFORMS:
-                raise ValueError(
-                    f"{cls.name}: planform = {planform!r}; allowed: "
-                    f"{', '.join(map(repr, PLANFORMS))}"
-                )
+                raise refusal(f"{cls.name}: planform", planform, ", ".join(map(repr, PLANFORMS)))
             insect = insect.with_planform(planform)
         if "rotational_coefficient" in kwargs:
             given = kwargs.pop("rotational_coefficient")
@@ -332,11 +331,8 @@ RENDER_MODES: tuple[str, ...] = ("human", "rgb_array")
 def check_real(owner: str, name: str, value: Any, unit: str, low: float, high: float) -> float:
     """``value`` as a float if it is a finite real number in [low, high]; else a ValueError."""
     if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
-        unit = f" {unit}" if unit else ""
-        raise ValueError(
-            f"{owner}.{name} = {value!r}{unit}; allowed: a finite number from {low:g} to "
-            f"{high:g}{unit}"
-        )
+        allowed = f"a finite number from {low:g} to {high:g}{' ' + unit if unit else ''}"
+        raise refusal(f"{owner}.{name}", value, allowed, unit)
     return float(value)
 
 
@@ -347,10 +343,8 @@ def check_interval(
     pair = () if isinstance(value, str | bytes) or not hasattr(value, "__len__") else tuple(value)
     finite = len(pair) == 2 and all(is_real(v) and math.isfinite(v) for v in pair)
     if not (finite and limits[0] <= pair[0] < pair[1] <= limits[1]):
-        raise ValueError(
-            f"{owner}.{name} = {value!r} {unit}; allowed: a pair (low, high) of finite numbers "
-            f"with {limits[0]:g} <= low < high <= {limits[1]:g} {unit}"
-        )
+        allowed = f"a pair (low, high) of finite numbers with {limits[0]:g} <= low < high <= "
+        raise refusal(f"{owner}.{name}", value, f"{allowed}{limits[1]:g} {unit}", unit)
     return float(pair[0]), float(pair[1])
 
 
@@ -365,9 +359,7 @@ def store_checked(config: Any, name: str, check: Callable[..., Any], *limits: An
 def check_render_mode(render_mode: Any) -> str | None:
     """``render_mode`` if it is None or one of :data:`RENDER_MODES`."""
     if render_mode is not None and render_mode not in RENDER_MODES:
-        raise ValueError(
-            f"render_mode = {render_mode!r}; allowed: None, {', '.join(map(repr, RENDER_MODES))}"
-        )
+        raise refusal("render_mode", render_mode, f"None, {', '.join(map(repr, RENDER_MODES))}")
     return render_mode
 
 
@@ -426,7 +418,7 @@ def reset_options(
 ) -> dict[str, float]:
     """The numbers ``options`` of ``reset`` set (empty for None): its keys all of ``ranges``
     (key -> (low, high, unit, what that range is)), each value finite and in its range; an
-    old key of ``renamed`` is refused naming its new one."""
+    old key of ``renamed`` is refusal naming its new one."""
     if not options:
         return {}
     if not isinstance(options, Mapping):
@@ -443,9 +435,7 @@ def reset_options(
     for key, value in options.items():
         low, high, unit, where = ranges[key]
         if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
-            raise ValueError(
-                f"{owner}: reset option {key} = {value!r}; allowed: a number in {where} {low:g} "
-                f"to {high:g} {unit}"
-            )
+            allowed = f"a number in {where} {low:g} to {high:g} {unit}"
+            raise refusal(f"{owner}: reset option {key}", value, allowed)
         values[key] = float(value)
     return values

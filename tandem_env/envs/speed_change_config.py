@@ -10,7 +10,7 @@ from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
 from ..physics.checks import is_integer
 from ..physics.stroke import WING_NAMES
 from .config import FlightConfig, check_interval, check_real, fixed_or_sampled, store_checked
-from .declaration import POWER_CAP, TaskDeclaration
+from .declaration import POWER_CAP, TaskDeclaration, refusal
 from .level_flight import LEVEL_FLIGHT
 
 #: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
@@ -83,10 +83,8 @@ class SpeedChangeReward:
                     f"allowed: {', '.join(terms)} (weights >= 0)"
                 )
             return cls(**value)
-        raise ValueError(
-            f"SpeedChange: reward = {value!r}; allowed: a SpeedChangeReward or a dict of weights "
-            f"for the terms {', '.join(terms)}"
-        )
+        allowed = f"a SpeedChangeReward or a dict of weights for the terms {', '.join(terms)}"
+        raise refusal("SpeedChange: reward", value, allowed)
 
 
 #: SpeedChange's default model options: the body's drag in the thrust split (see ``options``).
@@ -135,19 +133,18 @@ class SpeedChangeConfig(FlightConfig):
         fixed_or_sampled(self, "start_speed", "speed_envelope", "m/s", None)
         fixed_or_sampled(self, "target_speed", "speed_envelope", "m/s", None)
         if not is_integer(self.max_cycles) or not 1 <= self.max_cycles <= MAX_CYCLES:
-            raise ValueError(
-                f"{owner}.max_cycles = {self.max_cycles!r}; allowed: an integer from 1 to "
-                f"{MAX_CYCLES} (wing-beat cycles per episode)"
-            )
+            allowed = f"an integer from 1 to {MAX_CYCLES} (wing-beat cycles per episode)"
+            raise refusal(f"{owner}.max_cycles", self.max_cycles, allowed)
         object.__setattr__(self, "max_cycles", int(self.max_cycles))
+        given = self.forward_speed_band
         band = store_checked(self, "forward_speed_band", check_interval, "m/s", SPEED_LIMITS)
         if band[1] > MAX_BAND_SPEED:
-            raise ValueError(
-                f"{owner}.forward_speed_band = {self.forward_speed_band!r} m/s; allowed: a band "
-                f"within 0 to {MAX_BAND_SPEED:g} m/s (MAX_BAND_SPEED: beyond it one wing-beat's "
-                "step, the cycle-mean force held over the cycle, is not resolved and can reverse "
-                "the flight)"
+            allowed = (
+                f"a band within 0 to {MAX_BAND_SPEED:g} m/s (MAX_BAND_SPEED: beyond it one "
+                "wing-beat's step, the cycle-mean force held over the cycle, is not resolved and "
+                "can reverse the flight)"
             )
+            raise refusal(f"{owner}.forward_speed_band", given, allowed, "m/s")
         for end, value in zip(("low", "high"), envelope, strict=True):
             if not band[0] <= value <= band[1]:
                 raise ValueError(
