@@ -33,7 +33,7 @@ from .config import (
 from .declaration import TaskDeclaration, refusal
 from .problem import FlightProblem
 from .reference import ConfigReference
-from .render import Frame, LastStep, RenderWindow, frame_for
+from .render import Frame, LastStep, RenderWindow, history_of, metrics_line
 from .step_batch import Columns, StepBatch, add_columns, row, take_columns
 
 RENDER_FPS = 4
@@ -322,8 +322,24 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
 
     def frame(self, i: int, title: str) -> Frame:
         """The render frame of sub-env ``i`` under ``title`` (drawn by ``render``)."""
-        value = None if not self._started[i] else float(self._state[i])
-        return frame_for(self.core, title, value, self._last[i])
+        cfg, last = self.config, self._last[i]
+        if last is not None:
+            # The condition the stroke was evaluated in (a same-step autoreset may have moved on).
+            speed = float(last.batch.result.speed[last.index])
+            power = float(last.batch.result.available_power[last.index])
+        elif self._started[i]:
+            conditions = self.core.flight_conditions(self._state[i : i + 1])
+            speed, power = (float(v[0]) for v in conditions)
+        else:
+            return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
+        heading = f"{title}  V = {speed:.3g} m/s, P_avail = {power:.3g} W/kg"
+        if last is None:
+            return Frame(title=heading, subtitle="no stroke evaluated since reset", history=None)
+        columns = {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}
+        keyword = cfg.OBJECTIVES.keyword if cfg.OBJECTIVES is not None else None
+        label = "η" if keyword is None else f"F̄ ({getattr(cfg, keyword)})"
+        line = metrics_line(float(last.batch.reward[last.index]), row(columns, last.index), label)
+        return Frame(heading, line, history_of(last.batch, last.index, cfg.insect, cfg.options))
 
     # --- Gymnasium VectorEnv API ------------------------------------------------------------------
     def reset(

@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..physics import Dragonfly, ModelOptions, stroke_history
-from .step_batch import row
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -120,27 +119,6 @@ class LastStep:
 
     batch: Any
     index: int
-
-
-def frame_for(core: Any, title: str, condition: float | None, last: LastStep | None) -> Frame:
-    """The render frame of one one-cycle env."""
-    cfg = core.config
-    if last is not None:
-        # The condition the stroke was evaluated in (a same-step autoreset may have moved on).
-        speed = float(last.batch.result.speed[last.index])
-        power = float(last.batch.result.available_power[last.index])
-    elif condition is not None:
-        speed, power = (float(v[0]) for v in core.flight_conditions(np.array([condition])))
-    else:
-        return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
-    heading = f"{title}  V = {speed:.3g} m/s, P_avail = {power:.3g} W/kg"
-    if last is None:
-        return Frame(title=heading, subtitle="no stroke evaluated since reset", history=None)
-    columns = {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}
-    keyword = cfg.OBJECTIVES.keyword if cfg.OBJECTIVES is not None else None
-    label = "η" if keyword is None else f"F̄ ({getattr(cfg, keyword)})"
-    line = metrics_line(float(last.batch.reward[last.index]), row(columns, last.index), label)
-    return Frame(heading, line, history_of(last.batch, last.index, cfg.insect, cfg.options))
 
 
 class RenderWindow:

@@ -16,7 +16,7 @@ from ..physics import SPEED_LIMITS
 from .base import EnvGenerators, EnvOptions, FlightEnv, FlightVectorEnv, fly
 from .config import reset_options
 from .dynamics import advance, cycle_time, flight_path, net_force
-from .render import Frame, LastStep, history_of
+from .render import Frame, history_of
 from .speed_change_config import MAX_BAND_SPEED, SPEED_CHANGE, SpeedChangeConfig
 from .step_batch import Columns, StepBatch, row
 
@@ -187,30 +187,6 @@ class SpeedChangeCore:
         return CycleBatch(strokes, after, motion, terminated, truncated)
 
 
-def frame_for(
-    core: SpeedChangeCore, title: str, flight: Flight | None, index: int, last: LastStep | None
-) -> Frame:
-    """The render frame of episode ``index`` of ``flight``."""
-    cfg = core.config
-    if flight is None:
-        return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
-    state = row(flight.columns(), index)
-    heading = (
-        f"{title}  u = {state['forward_speed']:.3g} m/s -> u* = {state['target_speed']:.3g} m/s, "
-        f"h = {state['altitude']:+.3g} m, cycle {state['cycle']}/{cfg.max_cycles}"
-    )
-    if last is None:
-        return Frame(title=heading, subtitle="no cycle flown since reset", history=None)
-    batch, k = last.batch, last.index
-    result, motion = batch.strokes.result, row(batch.motion, k)
-    subtitle = (
-        f"reward {float(batch.reward[k]):.4g} | F_x {motion['force_horizontal'] * 1e3:+.3f} "
-        f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | "
-        f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
-    )
-    return Frame(heading, subtitle, history_of(batch.strokes, k, cfg.insect, cfg.options))
-
-
 # VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
 class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
     """n :class:`SpeedChangeEnv` in one batched model call per step (as ``FlightVectorEnv``)."""
@@ -246,8 +222,25 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
         return batch, observations
 
     def frame(self, i: int, title: str) -> Frame:
-        flight = self._state if self._started[i] else None
-        return frame_for(self.core, title, flight, i, self._last[i])
+        """The render frame of sub-env ``i``: its state, its last cycle's forces and power."""
+        cfg, last = self.config, self._last[i]
+        if not self._started[i]:
+            return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
+        state = row(self._state.columns(), i)
+        heading = (
+            f"{title}  u = {state['forward_speed']:.3g} m/s -> u* = {state['target_speed']:.3g} m/s, "
+            f"h = {state['altitude']:+.3g} m, cycle {state['cycle']}/{cfg.max_cycles}"
+        )
+        if last is None:
+            return Frame(title=heading, subtitle="no cycle flown since reset", history=None)
+        batch, k = last.batch, last.index
+        result, motion = batch.strokes.result, row(batch.motion, k)
+        subtitle = (
+            f"reward {float(batch.reward[k]):.4g} | F_x {motion['force_horizontal'] * 1e3:+.3f} "
+            f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | "
+            f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
+        )
+        return Frame(heading, subtitle, history_of(batch.strokes, k, cfg.insect, cfg.options))
 
 
 class SpeedChangeEnv(FlightEnv):
