@@ -90,6 +90,8 @@ class FlightCore:
         self.config = config
         self._low, self._high = config.envelope
         self._renamed = config.declared_condition.renamed()
+        self.option_key = config.declared_condition.keyword
+        """The ``reset(options=...)`` key that sets the condition for one episode."""
         self.reference = ConfigReference(config)
         """The reference optima this config's strokes are scored against (or none)."""
 
@@ -97,11 +99,6 @@ class FlightCore:
     def declaration(self) -> TaskDeclaration:
         """The task's declaration (a class attribute of its config, so never pickled)."""
         return type(self.config).DECLARATION  # type: ignore[return-value]
-
-    @property
-    def option_key(self) -> str:
-        """The ``reset(options=...)`` key that sets the condition for one episode."""
-        return self.config.declared_condition.keyword
 
     def draw(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
         """Conditions (count,) of new episodes: ``options[k]``'s, the fixed one, or one

@@ -40,9 +40,7 @@ class TandemVecEnv(VecEnv):
             vector_env.num_envs, vector_env.single_observation_space, vector_env.single_action_space
         )
         # What DummyVecEnv reports: the single env's metadata.
-        self.metadata = {
-            key: value for key, value in vector_env.metadata.items() if key != "autoreset_mode"
-        }
+        self.metadata = {k: v for k, v in vector_env.metadata.items() if k != "autoreset_mode"}
         self._actions: np.ndarray | None = None
 
     @property
@@ -91,8 +89,7 @@ class TandemVecEnv(VecEnv):
     def get_images(self) -> Sequence[np.ndarray | None]:
         if self.render_mode != "rgb_array":
             return [None] * self.num_envs
-        frames = self.vector_env.render()
-        return list(frames) if frames is not None else [None] * self.num_envs
+        return list(self.vector_env.render())  # type: ignore[arg-type]  # a frame per sub-env
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         value = getattr(self.vector_env, attr_name)

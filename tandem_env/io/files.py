@@ -81,21 +81,21 @@ def output_directory(
             f"{option} '': an empty path; allowed: a directory path (. for the current folder)"
         )
     path = Path(text)
-    writable = True
+    given, writable = f"{option} {str(path)!r}", True
     for folder in (path, *(path / name for name in folders)):
-        writable = _check_folder(folder, option, path, write) and writable
+        writable = _check_folder(folder, given, write) and writable
     for name in files:
         target = path / name
-        _check_link(target, option, path)
+        _check_link(target, given)
         if target.is_dir():
             raise ValueError(
-                f"{option} {str(path)!r}: {target} is a directory; allowed: a file the command "
-                "writes (remove or rename the directory)"
+                f"{given}: {target} is a directory; allowed: a file the command writes (remove or "
+                "rename the directory)"
             )
     return writable
 
 
-def _check_link(target: Path, option: str, path: Path) -> None:
+def _check_link(target: Path, given: str) -> None:
     """ValueError for a symlink that resolves to nothing (dangling) or into a loop."""
     if not target.is_symlink():
         return
@@ -105,19 +105,18 @@ def _check_link(target: Path, option: str, path: Path) -> None:
         what = f"a dangling symlink (to {os.readlink(target)!r})"
         what = "a symlink loop" if error.errno == errno.ELOOP else what
         raise ValueError(
-            f"{option} {str(path)!r}: {target} is {what}; allowed: a directory this user can "
-            "write, or a symlink to one"
+            f"{given}: {target} is {what}; allowed: a directory this user can write, or a "
+            "symlink to one"
         ) from None
 
 
-def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
+def _check_folder(folder: Path, given: str, write: bool) -> bool:
     existing = folder
-    given = f"{option} {str(path)!r}"
     allowed = "allowed: a directory this user can write (created if missing)"
     try:
         while not os.path.lexists(existing) and existing.parent != existing:
             existing = existing.parent
-        _check_link(existing, option, path)
+        _check_link(existing, given)
         is_dir = existing.is_dir()
     except OSError as error:
         why = error.strerror or error
