@@ -134,7 +134,8 @@ class FlightCore:
         objective = getattr(result, self.config.objective_metric)
         scores = self.declaration.score(result, self.config)
         score = self.reference.score(values, objective, scores.feasible, scores.total)
-        return StepBatch.scored(physical, result, objective, scores, self.config.penalty, score)
+        penalty = self.config.penalty.penalty(scores.total, scores.feasible)
+        return StepBatch(physical, result, objective, scores, penalty, score)
 
     def problem(self) -> FlightProblem:
         """The task as an optimisation problem over the action box, evaluated through

@@ -183,7 +183,8 @@ class SpeedChangeCore:
         scores = SPEED_CHANGE.score(result, cfg)
         motion = {"cycle_time": dt, "force_horizontal": fx, "force_vertical": fz, "energy": energy}
         motion |= {**terms, "left_altitude_band": left_altitude, "left_speed_band": left_speed}
-        strokes = StepBatch.scored(physical, result, objective, scores, cfg.penalty)
+        penalty = cfg.penalty.penalty(scores.total, scores.feasible)
+        strokes = StepBatch(physical, result, objective, scores, penalty)
         return CycleBatch(strokes, after, motion, terminated, truncated)
 
 

@@ -5,13 +5,12 @@ split into per-env dicts or Gymnasium's masked dict of arrays without a loop per
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..physics import PARAMETER_NAMES, Result
-from .config import PenaltyConfig
 from .declaration import Scores
 
 Columns = dict[str, Any]
@@ -82,25 +81,14 @@ class StepBatch:
     """The task's constraint violations and feasibility (its declaration's constraints)."""
     penalty: np.ndarray
     """(B,) reward lost to the constraints [reward units] (exactly 0 when feasible)."""
-    reward: np.ndarray
-    """(B,) objective − penalty."""
-    score: np.ndarray | None
+    score: np.ndarray | None = None
     """(B,) the normalised score [-] (:mod:`tandem_env.envs.reference`); None where the
     reference table does not describe the env."""
+    reward: np.ndarray = field(init=False)
+    """(B,) objective − penalty."""
 
-    @classmethod
-    def scored(
-        cls,
-        physical: np.ndarray,
-        result: Result,
-        objective: np.ndarray,
-        scores: Scores,
-        penalty: PenaltyConfig,
-        score: np.ndarray | None = None,
-    ) -> StepBatch:
-        """The batch, its reward the objective penalised by the env's ``penalty``."""
-        lost = penalty.penalty(scores.total, scores.feasible)
-        return cls(physical, result, objective, scores, lost, objective - lost, score)
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "reward", self.objective - self.penalty)
 
     def __len__(self) -> int:
         return int(self.reward.shape[0])
