@@ -63,8 +63,6 @@ ACCELERATE = TaskDeclaration(
         POWER_CAP,
     ),
 )
-_OBJECTIVES: TaskObjectives = ACCELERATE.objectives  # type: ignore[assignment]
-_CONDITION: TaskCondition = ACCELERATE.condition  # type: ignore[assignment]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -73,7 +71,7 @@ class AccelerateConfig(FlightConfig):
 
     DECLARATION: ClassVar[TaskDeclaration] = ACCELERATE
 
-    objective: str = _OBJECTIVES.default
+    objective: str = ACCELERATE.objectives.default  # type: ignore[union-attr]
     """Which specific excess force is maximised (one of ``ACCELERATE.objectives.choices``):
     ``"vertical"`` F̄_v = (L − W)/W, ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"``
     F̄_a = sqrt(F̄_v² + F̄_h²) or ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally
@@ -83,7 +81,7 @@ class AccelerateConfig(FlightConfig):
     """Fixed available power per body mass [W/kg]; default 90 W/kg unless a range is given."""
     available_power_range: tuple[float, float] | None = None
     """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
-    available_power_envelope: tuple[float, float] = _CONDITION.envelope
+    available_power_envelope: tuple[float, float] = ACCELERATE.condition.envelope  # type: ignore[union-attr]
     """(low, high) [W/kg] mapped to the observation's [-1, 1], holding every power used;
     default the paper's sweep, 50 to 90 W/kg."""
     speed: float = 0.0

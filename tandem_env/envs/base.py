@@ -26,7 +26,6 @@ from .config import (
     FlightConfig,
     action_array,
     action_values,
-    check_actions,
     check_render_mode,
     reset_options,
 )
@@ -279,7 +278,8 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         """Validate and evaluate the actions (len(index), 28) of sub-envs ``index`` in one model
         call; (batch, observations after it). The SB3 adapter steps through it."""
         index = np.asarray(index, dtype=np.intp)
-        arr = check_actions(actions, (index.size, N_PARAMETERS), self.config.clip_actions)
+        shape = (index.size, N_PARAMETERS)
+        arr = action_values(action_array(actions, shape), self.config.clip_actions)
         return self.step_checked(index, arr)
 
     def step_checked(self, index: np.ndarray, actions: np.ndarray) -> tuple[Any, np.ndarray]:
@@ -480,7 +480,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         return self.vector_env.observations[0], row(columns, 0)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        arr = check_actions(action, (N_PARAMETERS,), self.config.clip_actions)
+        arr = action_values(action_array(action, (N_PARAMETERS,)), self.config.clip_actions)
         batch, observations = self.vector_env.step_checked(_FIRST, arr[None, :])
         if self.render_mode == "human":
             self.render()

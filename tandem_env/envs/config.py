@@ -363,12 +363,6 @@ def check_render_mode(render_mode: Any) -> str | None:
     return render_mode
 
 
-def check_actions(actions: Any, shape: tuple[int, ...], clip: bool) -> np.ndarray:
-    """Normalised strokes of ``shape`` ((28,) or (B, 28)) as a float64 array: real numbers,
-    finite, and inside [-1, 1] (or clipped into it when ``clip``)."""
-    return action_values(action_array(actions, shape), clip)
-
-
 def action_array(actions: Any, shape: tuple[int, ...]) -> np.ndarray:
     """``actions`` as a float64 array of ``shape`` (real numbers; values not checked yet)."""
     if len(shape) == 1:
