@@ -270,11 +270,9 @@ class TaskDeclaration:
     def __post_init__(self) -> None:
         _text("TaskDeclaration", "name", self.name)
         _text("TaskDeclaration", "summary", self.summary)
-        if (
-            (self.condition is None) != (self.objectives is None)
-            or not (self.condition is None or isinstance(self.condition, TaskCondition))
-            or not (self.objectives is None or isinstance(self.objectives, TaskObjectives))
-        ):
+        kinds = isinstance(self.condition, TaskCondition | None)
+        kinds = kinds and isinstance(self.objectives, TaskObjectives | None)
+        if (self.condition is None) != (self.objectives is None) or not kinds:
             raise TypeError(
                 f"TaskDeclaration {self.name!r}: condition = {self.condition!r}, objectives = "
                 f"{self.objectives!r}; allowed: a TaskCondition and a TaskObjectives, or neither"

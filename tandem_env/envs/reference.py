@@ -187,11 +187,8 @@ def _series(entry: Any) -> ReferenceSeries:
     points = tuple(entry["points"])
     grid = REFERENCE_GRID[env_id][1]
     conditions = tuple(p["condition"] for p in points)
-    if (
-        not points
-        or not all(is_real(c) and any(abs(c - g) < 1e-9 for g in grid) for c in conditions)
-        or not np.all(np.diff(conditions) > 0)
-    ):
+    on_grid = all(is_real(c) and any(abs(c - g) < 1e-9 for g in grid) for c in conditions)
+    if not (points and on_grid and np.all(np.diff(conditions) > 0)):
         raise ValueError(
             f"series {name}: conditions {list(conditions)}; allowed: increasing points of the "
             f"grid {list(grid)}"
@@ -199,9 +196,8 @@ def _series(entry: Any) -> ReferenceSeries:
     for point in points:
         where = f"series {name} at {point['condition']:g}"
         feasible, value = point["feasible"], point["objective"]
-        if not isinstance(feasible, bool) or (
-            feasible and not (is_real(value) and math.isfinite(value) and value > 0)
-        ):
+        good = is_real(value) and math.isfinite(value) and value > 0
+        if not isinstance(feasible, bool) or (feasible and not good):
             raise ValueError(
                 f"{where}: objective {value!r}, feasible {feasible!r}; allowed: feasible true or "
                 "false, and a finite objective above 0 where feasible"
