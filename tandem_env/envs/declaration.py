@@ -38,12 +38,8 @@ def _text(owner: str, name: str, value: Any) -> None:
 
 
 def _pair(owner: str, name: str, value: Any, unit: str) -> tuple[float, float]:
-    if not (
-        isinstance(value, tuple)
-        and len(value) == 2
-        and all(is_real(v) and math.isfinite(v) for v in value)
-        and value[0] < value[1]
-    ):
+    pair = isinstance(value, tuple) and len(value) == 2
+    if not (pair and all(is_real(v) and math.isfinite(v) for v in value) and value[0] < value[1]):
         allowed = f"a tuple (low, high) of finite numbers with low < high [{unit}]"
         raise refusal(f"{owner}.{name}", value, allowed)
     return float(value[0]), float(value[1])
@@ -159,11 +155,9 @@ class TaskObjectives:
 
     def __post_init__(self) -> None:
         owner = "TaskObjectives"
-        if not (
-            isinstance(self.metrics, Mapping)
-            and self.metrics
-            and all(isinstance(k, str) and k for k in self.metrics)
-        ):
+        metrics = self.metrics
+        named = isinstance(metrics, Mapping) and all(isinstance(k, str) and k for k in metrics)
+        if not (named and metrics):
             allowed = (
                 "a non-empty mapping of objective choice -> info metric, e.g. {'efficiency': "
                 "'efficiency'}"

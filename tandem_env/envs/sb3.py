@@ -36,17 +36,14 @@ class TandemVecEnv(VecEnv):
                 'gym.make_vec(id, num_envs=n, vectorization_mode="vector_entry_point")'
             )
         self.vector_env = vector_env
+        self.config = vector_env.config
+        """The env config (``LevelFlightConfig``, ``AccelerateConfig`` or ``SpeedChangeConfig``)."""
         super().__init__(
             vector_env.num_envs, vector_env.single_observation_space, vector_env.single_action_space
         )
         # What DummyVecEnv reports: the single env's metadata.
         self.metadata = {k: v for k, v in vector_env.metadata.items() if k != "autoreset_mode"}
         self._actions: np.ndarray | None = None
-
-    @property
-    def config(self) -> Any:
-        """The env config (``LevelFlightConfig``, ``AccelerateConfig`` or ``SpeedChangeConfig``)."""
-        return self.vector_env.config
 
     def reset(self) -> np.ndarray:
         everyone = np.arange(self.num_envs)
