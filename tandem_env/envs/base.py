@@ -170,15 +170,13 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         self.num_envs = int(num_envs)
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
-        if config is None:
-            config = self.config_class.from_kwargs(**kwargs)
-        elif kwargs:
+        if config is not None and kwargs:
             raise ValueError(
                 f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
             )
-        elif not isinstance(config, self.config_class):
+        if not isinstance(config, self.config_class | None):
             raise refusal("config", config, f"a {self.config_class.__name__} (or keyword options)")
-        self.config = config
+        self.config = self.config_class.from_kwargs(**kwargs) if config is None else config
         self.core = self.core_class(self.config)
         self.single_action_space = action_space()
         self.single_observation_space = self._observation_space()
@@ -355,6 +353,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
                 f"length={len(seeds)}."
             )
         options = dict(options) if options is not None else None
+        index = np.arange(n)  # every sub-env, unless a reset_mask says which
         if options is not None and "reset_mask" in options:
             mask = options.pop("reset_mask")
             if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
@@ -364,8 +363,6 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             if not mask.any():
                 raise ValueError("options['reset_mask'] must contain at least one True value")
             index = np.flatnonzero(mask)
-        else:
-            index = np.arange(n)
         columns = self.reset_envs(index, [seeds[i] for i in index], options)
         if self.render_mode == "human":
             self.render()
