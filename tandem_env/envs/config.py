@@ -274,7 +274,7 @@ class FlightConfig:
         """Build the config from the ``gym.make`` kwargs: the fields, ``planform`` and
         ``rotational_coefficient`` (C_r of both wings [-], Table 3) over ``insect``, every
         :data:`MODEL_OPTION_KWARGS` over ``options``, ``penalty_weight`` / ``penalty_offset``
-        over ``penalty``; a condition's old keyword is refusal naming the new one."""
+        over ``penalty``; a condition's old keyword is refused naming the new one."""
         renamed = cls.CONDITION.renamed() if cls.CONDITION is not None else {}
         old = sorted(set(kwargs) & set(renamed))
         if old:
@@ -412,7 +412,7 @@ def reset_options(
 ) -> dict[str, float]:
     """The numbers ``options`` of ``reset`` set (empty for None): its keys all of ``ranges``
     (key -> (low, high, unit, what that range is)), each value finite and in its range; an
-    old key of ``renamed`` is refusal naming its new one."""
+    old key of ``renamed`` is refused naming its new one."""
     if not options:
         return {}
     if not isinstance(options, Mapping):

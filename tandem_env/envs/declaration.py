@@ -74,7 +74,7 @@ class TaskCondition:
     """Its command-line option without the dashes (``python -m eval optimize``), e.g.
     ``"power"`` for ``--power``; default the keyword."""
     former_keyword: str | None = None
-    """The condition's old name, refusal with a message naming the new one (``"power"`` for
+    """The condition's old name, refused with a message naming the new one (``"power"`` for
     ``"available_power"``), or None."""
 
     def __post_init__(self) -> None:
