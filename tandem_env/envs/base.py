@@ -122,8 +122,7 @@ class FlightCore:
 
     def reset_columns(self, values: np.ndarray) -> Columns:
         """Reset info columns: the flight condition of each new episode."""
-        speed, power = self.flight_conditions(values)
-        return {"speed": speed, "available_power": power}
+        return dict(zip(("speed", "available_power"), self.flight_conditions(values), strict=True))
 
     def step(self, physical: np.ndarray, values: np.ndarray) -> StepBatch:
         """Evaluate one wing-beat of each (validated, physical) stroke in its condition, in ONE
@@ -135,11 +134,6 @@ class FlightCore:
         score = self.reference.score(values, objective, scores.feasible, scores.total)
         penalty = self.config.penalty.penalty(scores.total, scores.feasible)
         return StepBatch(physical, result, objective, scores, penalty, score)
-
-    def problem(self) -> FlightProblem:
-        """The task as an optimisation problem over the action box, evaluated through
-        :meth:`step` at conditions given with each call (:mod:`tandem_env.envs.problem`)."""
-        return FlightProblem(self, ACTION_LOW, ACTION_HIGH)
 
 
 class FlightVectorEnv(RenderWindow, VectorEnv):
@@ -219,15 +213,15 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return self._observations.copy()
 
     def problem(self) -> FlightProblem:
-        """The task as an optimisation problem (:mod:`tandem_env.envs.problem`): bounds,
-        constraints, batched evaluation at explicit conditions. A one-cycle task's only: a
-        sequential task's core has no one-stroke problem (TypeError)."""
+        """The task as an optimisation problem over the action box (:mod:`~.problem`): bounds,
+        constraints, batched evaluation through the core's ``step`` at explicit conditions. A
+        one-cycle task's only: a sequential task's core has no one-stroke problem (TypeError)."""
         if not isinstance(self.core, FlightCore):
             raise TypeError(
                 f"{self!r}: {type(self.core).__name__} poses no one-stroke problem; allowed: a "
                 "one-cycle task (a FlightCore)"
             )
-        return self.core.problem()
+        return FlightProblem(self.core, ACTION_LOW, ACTION_HIGH)
 
     @property
     def started(self) -> np.ndarray:

@@ -300,16 +300,14 @@ def check_declarations(cls: type) -> None:
     """Check a config class's ``DECLARATION`` against its own fields, when the class is
     defined (a declaration naming a missing field fails at import, naming both)."""
     declaration = getattr(cls, "DECLARATION", None)
-    if declaration is None:
-        return
-    if not isinstance(declaration, TaskDeclaration):
+    if not isinstance(declaration, TaskDeclaration | None):
         raise TypeError(
             f"{cls.__name__}: DECLARATION = {declaration!r}; allowed: a TaskDeclaration "
             "(tandem_env.envs.declaration)"
         )
-    condition, objectives = declaration.condition, declaration.objectives
-    if condition is None or objectives is None:
+    if declaration is None or declaration.condition is None or declaration.objectives is None:
         return
+    condition, objectives = declaration.condition, declaration.objectives
     fields = {name for klass in cls.__mro__ for name in getattr(klass, "__annotations__", {})}
     needed = [*condition.keywords, *([objectives.keyword] if objectives.keyword else [])]
     missing = [name for name in needed if name not in fields]

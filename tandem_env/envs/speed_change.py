@@ -229,8 +229,8 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
             return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
         state = row(self._state.columns(), i)
         heading = (
-            f"{title}  u = {state['forward_speed']:.3g} m/s -> u* = {state['target_speed']:.3g} m/s, "
-            f"h = {state['altitude']:+.3g} m, cycle {state['cycle']}/{cfg.max_cycles}"
+            f"{title}  u = {state['forward_speed']:.3g} m/s -> u* = {state['target_speed']:.3g} "
+            f"m/s, h = {state['altitude']:+.3g} m, cycle {state['cycle']}/{cfg.max_cycles}"
         )
         if last is None:
             return Frame(title=heading, subtitle="no cycle flown since reset", history=None)
@@ -238,8 +238,8 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
         result, motion = batch.strokes.result, row(batch.motion, k)
         subtitle = (
             f"reward {float(batch.reward[k]):.4g} | F_x {motion['force_horizontal'] * 1e3:+.3f} "
-            f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | "
-            f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
+            f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | P/m "
+            f"{float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
         )
         return Frame(heading, subtitle, history_of(batch.strokes, k, cfg.insect, cfg.options))
 

@@ -58,7 +58,8 @@ class BoundedLoader(yaml.SafeLoader):
                 if total > MAX_YAML_NODES:
                     raise YAMLTooLarge(
                         f"it expands to more than {MAX_YAML_NODES:,} values (aliases counted as "
-                        f"what they repeat; line {_line(node)}); allowed: at most {MAX_YAML_NODES:,}"
+                        f"what they repeat; line {_line(node)}); allowed: at most "
+                        f"{MAX_YAML_NODES:,}"
                     )
             open_nodes.discard(key)
             sizes[key] = total
