@@ -238,12 +238,12 @@ class FlightConfig:
     @property
     def condition_range(self) -> tuple[float, float] | None:
         """The range the condition is sampled from at reset, or None for a fixed condition."""
-        return getattr(self, self.declared_condition.range_keyword)
+        return getattr(self, f"{self.condition_key or self.declared_condition.keyword}_range")
 
     @property
     def fixed_condition(self) -> float | None:
-        """The fixed condition, or None when it is sampled."""
-        return getattr(self, self.declared_condition.keyword)
+        """The fixed condition (``condition_key``'s), or None when it is sampled."""
+        return getattr(self, self.condition_key or self.declared_condition.keyword)
 
     @property
     def objective_metric(self) -> str:

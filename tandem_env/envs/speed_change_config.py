@@ -160,18 +160,12 @@ class SpeedChangeConfig(FlightConfig):
         """As :meth:`FlightConfig.from_kwargs`, with ``thrust_split="body"`` unless given."""
         return super().from_kwargs(**{"options": BODY_SPLIT, **kwargs})
 
-    # --- the condition the training tools vary: the target speed -----------------------------
     @property
     def envelope(self) -> tuple[float, float]:
+        """The target speed's envelope (``speed_envelope``): the condition the training tools
+        vary (``condition_key``; its fixed value and range are ``target_speed`` and
+        ``target_speed_range``)."""
         return self.speed_envelope
-
-    @property
-    def condition_range(self) -> tuple[float, float] | None:
-        return self.target_speed_range
-
-    @property
-    def fixed_condition(self) -> float | None:
-        return self.target_speed
 
     @property
     def available_power(self) -> float:
