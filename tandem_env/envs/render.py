@@ -101,15 +101,12 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
 def metrics_line(reward: float, info: dict[str, Any], objective_label: str) -> str:
     """The subtitle: "reward … | objective … | L/W … | F̄_h … | P/m … | feasible"."""
     infeasible = f"infeasible (violation {info['constraint_violation']:.3g})"
-    parts = [
-        f"reward {reward:.4g}",
-        f"{objective_label} {info['objective']:.4g}",
-        f"L/W {info['lift_to_weight']:.3f}",
-        f"F̄_h {info['excess_horizontal']:+.3f}",
-        f"P/m {info['power_per_mass']:.1f} W/kg",
-        "feasible" if info["feasible"] else infeasible,
-    ]
-    return " | ".join(parts)
+    feasible = "feasible" if info["feasible"] else infeasible
+    return (
+        f"reward {reward:.4g} | {objective_label} {info['objective']:.4g} | "
+        f"L/W {info['lift_to_weight']:.3f} | F̄_h {info['excess_horizontal']:+.3f} | "
+        f"P/m {info['power_per_mass']:.1f} W/kg | {feasible}"
+    )
 
 
 # --- the envs' side: what a sub-env shows, and the window an env owns ---------------------------
