@@ -444,9 +444,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         self, render_mode: str | None = None, *, config: FlightConfig | None = None, **kwargs: Any
     ) -> None:
         self.render_mode = check_render_mode(render_mode)
-        self.vector_env = self.vector_class(
-            1, None, AutoresetMode.DISABLED, config=config, **kwargs
-        )
+        self.vector_env = self.vector_class(1, None, "Disabled", config=config, **kwargs)
         self.config = self.vector_env.config
         self.core = self.vector_env.core
         self.action_space = action_space()

@@ -121,8 +121,7 @@ class FlightProblem:
         strokes, values = self._inputs(actions, conditions)
         config = self.config
         speed, power = self._core.flight_conditions(values)
-        metric = config.objective_metric
-        functions = [lambda result: getattr(result, metric)]
+        functions = [lambda result: getattr(result, self.objective_metric)]
         functions += [lambda result, c=c: c.margin(result, config) for c in self.constraints]
         model = {"insect": config.insect, "options": config.options, "device": config.device}
         result, values, jacobian = torch_model.normalised_jacobian(

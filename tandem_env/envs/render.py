@@ -7,7 +7,7 @@ alone); ``human`` mode redraws a pyplot window. Matplotlib is imported only when
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -110,8 +110,7 @@ def metrics_line(reward: float, info: dict[str, Any], objective_label: str) -> s
 
 
 # --- the envs' side: what a sub-env shows, and the window an env owns ---------------------------
-@dataclass
-class LastStep:
+class LastStep(NamedTuple):
     """What the picture of a sub-env shows: its last evaluated step, or None."""
 
     batch: Any
@@ -156,6 +155,4 @@ class RenderWindow:
             self._window = None
 
     def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_window"] = None
-        return state
+        return {**self.__dict__, "_window": None}

@@ -142,9 +142,8 @@ class SpeedChangeCore:
 
     def reset_columns(self, flight: Flight) -> Columns:
         """Reset info columns: the start state and the power cap."""
-        columns = flight.columns()
-        columns["available_power"] = np.full(len(flight.cycle), self.config.available_power)
-        return columns
+        power = np.full(len(flight.cycle), self.config.available_power)
+        return {**flight.columns(), "available_power": power}
 
     # --- one cycle -------------------------------------------------------------------------
     def step(self, physical: np.ndarray, flight: Flight) -> CycleBatch:

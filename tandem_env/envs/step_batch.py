@@ -20,29 +20,23 @@ Columns = dict[str, Any]
 def row(columns: Columns, index: int) -> dict[str, Any]:
     """One env's info dict: plain Python floats, bools and ints (nested dicts stay dicts)."""
     return {
-        key: row(value, index) if isinstance(value, dict) else value[index].item()
-        for key, value in columns.items()
+        k: row(v, index) if isinstance(v, dict) else v[index].item() for k, v in columns.items()
     }
 
 
 def take_columns(columns: Columns, index: np.ndarray) -> Columns:
     """The rows ``index`` of info columns (nested dicts too)."""
     return {
-        key: take_columns(value, index) if isinstance(value, dict) else value[index]
-        for key, value in columns.items()
+        k: take_columns(v, index) if isinstance(v, dict) else v[index] for k, v in columns.items()
     }
 
 
 def rows(columns: Columns, count: int) -> list[dict[str, Any]]:
     """All ``count`` info dicts at once (``tolist`` per column, not per value)."""
-    keys = list(columns)
-    lists = [
-        rows(columns[key], count) if isinstance(columns[key], dict) else columns[key].tolist()
-        for key in keys
-    ]
-    if not keys:
+    lists = [rows(v, count) if isinstance(v, dict) else v.tolist() for v in columns.values()]
+    if not lists:
         return [{} for _ in range(count)]
-    return [dict(zip(keys, values, strict=True)) for values in zip(*lists, strict=True)]
+    return [dict(zip(columns, values, strict=True)) for values in zip(*lists, strict=True)]
 
 
 def add_columns(
