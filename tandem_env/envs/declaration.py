@@ -102,10 +102,9 @@ class TaskCondition:
         if not (ok and all(a < b for a, b in pairwise(sweep))):
             allowed = f"a non-empty, increasing tuple of numbers inside envelope = {inside}"
             raise refusal(f"{what}sweep", sweep, f"{allowed} {self.unit}")
-        object.__setattr__(self, "limits", limits)
-        object.__setattr__(self, "envelope", envelope)
-        object.__setattr__(self, "default", float(self.default))
-        object.__setattr__(self, "sweep", tuple(float(v) for v in sweep))
+        stored = {"limits": limits, "envelope": envelope, "default": float(self.default)}
+        for name, value in {**stored, "sweep": tuple(float(v) for v in sweep)}.items():
+            object.__setattr__(self, name, value)
 
     @property
     def range_keyword(self) -> str:

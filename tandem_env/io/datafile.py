@@ -107,12 +107,10 @@ class DataLoader(BoundedLoader):
                     continue  # reported by the base class
                 line = key_node.start_mark.line + 1
                 if key in seen:
+                    twice = f"duplicate key {key!r} on lines {seen[key]} and {line}"
+                    problem = f"{twice}; allowed: each key once per mapping"
                     raise yaml.constructor.ConstructorError(
-                        None,
-                        None,
-                        f"duplicate key {key!r} on lines {seen[key]} and {line}; allowed: each "
-                        "key once per mapping",
-                        key_node.start_mark,
+                        None, None, problem, key_node.start_mark
                     )
                 seen[key] = line
         return super().construct_mapping(node, deep=deep)
