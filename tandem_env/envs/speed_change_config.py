@@ -178,20 +178,17 @@ class SpeedChangeConfig(FlightConfig):
         largest speed and altitude errors. The termination weight should exceed it."""
         lowest = self.insect.stroke_bounds.lower
         slowest = 1.0 / min(lowest[PARAMETER_NAMES.index(f"{w}_frequency")] for w in WING_NAMES)
-        band = self.forward_speed_band
-        env = self.speed_envelope
+        band, env, w = self.forward_speed_band, self.speed_envelope, self.reward
         speed_error = max(band[1] - env[0], env[1] - band[0])
         power = self.available_power * self.insect.body_mass
-        w = self.reward
-        return slowest * (
-            w.speed * speed_error + w.altitude * self.altitude_band + w.energy * power
-        )
+        cost = w.speed * speed_error + w.altitude * self.altitude_band + w.energy * power
+        return slowest * cost
 
     def describe(self) -> str:
         def part(name: str) -> str:
             fixed, sampled = getattr(self, name), getattr(self, f"{name}_range")
-            return (
-                f"{fixed:g} m/s" if fixed is not None else f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
-            )
+            if fixed is not None:
+                return f"{fixed:g} m/s"
+            return f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
 
         return f"u0 = {part('start_speed')} -> u* = {part('target_speed')}"
