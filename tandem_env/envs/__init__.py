@@ -56,11 +56,9 @@ __all__ = [
     "register_envs",
 ]
 
-_LAZY_SB3 = ("TandemVecEnv", "make_sb3_vec_env")
-
 
 def __getattr__(name: str) -> Any:
-    if name in _LAZY_SB3:
+    if name in ("TandemVecEnv", "make_sb3_vec_env"):  # the SB3 adapter, imported when asked for
         from . import sb3
 
         return getattr(sb3, name)

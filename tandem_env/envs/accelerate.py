@@ -13,9 +13,8 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import AVAILABLE_POWER_LIMITS, DRAGONFLY, SPEED_LIMITS, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import FlightConfig, normalise_condition
+from .config import FlightConfig, check_real, store_checked
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
-from .validate import check_real, store_checked
 
 #: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
 SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass
@@ -64,8 +63,6 @@ ACCELERATE = TaskDeclaration(
         POWER_CAP,
     ),
 )
-_OBJECTIVES: TaskObjectives = ACCELERATE.objectives  # type: ignore[assignment]
-_CONDITION: TaskCondition = ACCELERATE.condition  # type: ignore[assignment]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -74,7 +71,7 @@ class AccelerateConfig(FlightConfig):
 
     DECLARATION: ClassVar[TaskDeclaration] = ACCELERATE
 
-    objective: str = _OBJECTIVES.default
+    objective: str = ACCELERATE.objectives.default  # type: ignore[union-attr]
     """Which specific excess force is maximised (one of ``ACCELERATE.objectives.choices``):
     ``"vertical"`` F̄_v = (L − W)/W, ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"``
     F̄_a = sqrt(F̄_v² + F̄_h²) or ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally
@@ -84,7 +81,7 @@ class AccelerateConfig(FlightConfig):
     """Fixed available power per body mass [W/kg]; default 90 W/kg unless a range is given."""
     available_power_range: tuple[float, float] | None = None
     """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
-    available_power_envelope: tuple[float, float] = _CONDITION.envelope
+    available_power_envelope: tuple[float, float] = ACCELERATE.condition.envelope  # type: ignore[union-attr]
     """(low, high) [W/kg] mapped to the observation's [-1, 1], holding every power used;
     default the paper's sweep, 50 to 90 W/kg."""
     speed: float = 0.0
@@ -92,14 +89,7 @@ class AccelerateConfig(FlightConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        owner = type(self).__name__
-        choices = _OBJECTIVES.choices
-        if self.objective not in choices:
-            raise ValueError(
-                f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, choices))}"
-            )
         store_checked(self, "speed", check_real, "m/s", *SPEED_LIMITS)
-        normalise_condition(self)
 
     def describe(self) -> str:
         return f"{super().describe()}, V = {self.speed:g} m/s, objective {self.objective}"
@@ -140,4 +130,3 @@ class AccelerateEnv(FlightEnv):
 
     vector_class = AccelerateVectorEnv
     config: AccelerateConfig
-    title = "Accelerate"

@@ -21,22 +21,19 @@ from gymnasium.vector.utils import batch_space
 from ..physics import N_PARAMETERS, Result, evaluate, normalised_to_physical
 from ..physics.checks import count
 from ..physics.model import MAX_BATCH_STROKES
-from .columns import Columns, add_columns, row, take_columns
-from .config import FlightConfig
-from .declaration import TaskDeclaration
-from .problem import FlightProblem
-from .reference import ConfigReference
-from .render import Frame, LastStep, RenderWindow, frame_for
-from .step_batch import StepBatch
-from .validate import (
+from .config import (
     RENDER_MODES,
+    FlightConfig,
     action_array,
     action_values,
-    build_config,
-    check_actions,
     check_render_mode,
     reset_options,
 )
+from .declaration import TaskDeclaration, refusal
+from .problem import FlightProblem
+from .reference import ConfigReference
+from .render import Frame, LastStep, RenderWindow, history_of, metrics_line
+from .step_batch import Columns, StepBatch, add_columns, row, take_columns
 
 RENDER_FPS = 4
 #: The ``metadata`` of every flight env; a vector env's adds its autoreset mode.
@@ -92,6 +89,8 @@ class FlightCore:
         self.config = config
         self._low, self._high = config.envelope
         self._renamed = config.declared_condition.renamed()
+        self.option_key = config.declared_condition.keyword
+        """The ``reset(options=...)`` key that sets the condition for one episode."""
         self.reference = ConfigReference(config)
         """The reference optima this config's strokes are scored against (or none)."""
 
@@ -99,11 +98,6 @@ class FlightCore:
     def declaration(self) -> TaskDeclaration:
         """The task's declaration (a class attribute of its config, so never pickled)."""
         return type(self.config).DECLARATION  # type: ignore[return-value]
-
-    @property
-    def option_key(self) -> str:
-        """The ``reset(options=...)`` key that sets the condition for one episode."""
-        return self.config.declared_condition.keyword
 
     def draw(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
         """Conditions (count,) of new episodes: ``options[k]``'s, the fixed one, or one
@@ -113,12 +107,8 @@ class FlightCore:
         values = np.empty(count)
         for k in range(count):
             given = reset_options(cfg.name, options[k], {key: where}, self._renamed)
-            if given:
-                values[k] = given[key]
-            elif cfg.condition_range is None:
-                values[k] = cfg.fixed_condition
-            else:
-                values[k] = rngs(k).uniform(*cfg.condition_range)
+            value = given.get(key, cfg.fixed_condition)  # None: sampled
+            values[k] = rngs(k).uniform(*cfg.condition_range) if value is None else value
         return values
 
     def observe(self, values: np.ndarray) -> np.ndarray:
@@ -132,8 +122,7 @@ class FlightCore:
 
     def reset_columns(self, values: np.ndarray) -> Columns:
         """Reset info columns: the flight condition of each new episode."""
-        speed, power = self.flight_conditions(values)
-        return {"speed": speed, "available_power": power}
+        return dict(zip(("speed", "available_power"), self.flight_conditions(values), strict=True))
 
     def step(self, physical: np.ndarray, values: np.ndarray) -> StepBatch:
         """Evaluate one wing-beat of each (validated, physical) stroke in its condition, in ONE
@@ -143,12 +132,8 @@ class FlightCore:
         objective = getattr(result, self.config.objective_metric)
         scores = self.declaration.score(result, self.config)
         score = self.reference.score(values, objective, scores.feasible, scores.total)
-        return StepBatch.scored(physical, result, objective, scores, self.config.penalty, score)
-
-    def problem(self) -> FlightProblem:
-        """The task as an optimisation problem over the action box, evaluated through
-        :meth:`step` at conditions given with each call (:mod:`tandem_env.envs.problem`)."""
-        return FlightProblem(self, ACTION_LOW, ACTION_HIGH)
+        penalty = self.config.penalty.penalty(scores.total, scores.feasible)
+        return StepBatch(physical, result, objective, scores, penalty, score)
 
 
 class FlightVectorEnv(RenderWindow, VectorEnv):
@@ -179,7 +164,13 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         self.num_envs = int(num_envs)
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
-        self.config = build_config(self.config_class, config, kwargs)
+        if config is not None and kwargs:
+            raise ValueError(
+                f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
+            )
+        if not isinstance(config, self.config_class | None):
+            raise refusal("config", config, f"a {self.config_class.__name__} (or keyword options)")
+        self.config = self.config_class.from_kwargs(**kwargs) if config is None else config
         self.core = self.core_class(self.config)
         self.single_action_space = action_space()
         self.single_observation_space = self._observation_space()
@@ -209,9 +200,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     @property
     def np_random_seed(self) -> tuple[int | None, ...]:  # type: ignore[override]
         """Each sub-env's seed."""
-        for i in range(self.num_envs):
-            self._rng(i)
-        return tuple(self._rng_seeds)
+        return tuple(self._rng_seeds[i] for i, _ in enumerate(self.np_random))
 
     @property
     def conditions(self) -> np.ndarray:
@@ -224,15 +213,15 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return self._observations.copy()
 
     def problem(self) -> FlightProblem:
-        """The task as an optimisation problem (:mod:`tandem_env.envs.problem`): bounds,
-        constraints, batched evaluation at explicit conditions. A one-cycle task's only: a
-        sequential task's core has no one-stroke problem (TypeError)."""
+        """The task as an optimisation problem over the action box (:mod:`~.problem`): bounds,
+        constraints, batched evaluation through the core's ``step`` at explicit conditions. A
+        one-cycle task's only: a sequential task's core has no one-stroke problem (TypeError)."""
         if not isinstance(self.core, FlightCore):
             raise TypeError(
                 f"{self!r}: {type(self.core).__name__} poses no one-stroke problem; allowed: a "
                 "one-cycle task (a FlightCore)"
             )
-        return self.core.problem()
+        return FlightProblem(self.core, ACTION_LOW, ACTION_HIGH)
 
     @property
     def started(self) -> np.ndarray:
@@ -281,7 +270,8 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         """Validate and evaluate the actions (len(index), 28) of sub-envs ``index`` in one model
         call; (batch, observations after it). The SB3 adapter steps through it."""
         index = np.asarray(index, dtype=np.intp)
-        arr = check_actions(actions, (index.size, N_PARAMETERS), self.config.clip_actions)
+        shape = (index.size, N_PARAMETERS)
+        arr = action_values(action_array(actions, shape), self.config.clip_actions)
         return self.step_checked(index, arr)
 
     def step_checked(self, index: np.ndarray, actions: np.ndarray) -> tuple[Any, np.ndarray]:
@@ -322,8 +312,24 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
 
     def frame(self, i: int, title: str) -> Frame:
         """The render frame of sub-env ``i`` under ``title`` (drawn by ``render``)."""
-        value = None if not self._started[i] else float(self._state[i])
-        return frame_for(self.core, title, value, self._last[i])
+        cfg, last = self.config, self._last[i]
+        if last is not None:
+            # The condition the stroke was evaluated in (a same-step autoreset may have moved on).
+            speed = float(last.batch.result.speed[last.index])
+            power = float(last.batch.result.available_power[last.index])
+        elif self._started[i]:
+            conditions = self.core.flight_conditions(self._state[i : i + 1])
+            speed, power = (float(v[0]) for v in conditions)
+        else:
+            return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
+        heading = f"{title}  V = {speed:.3g} m/s, P_avail = {power:.3g} W/kg"
+        if last is None:
+            return Frame(title=heading, subtitle="no stroke evaluated since reset", history=None)
+        columns = {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}
+        keyword = cfg.OBJECTIVES.keyword if cfg.OBJECTIVES is not None else None
+        label = "η" if keyword is None else f"F̄ ({getattr(cfg, keyword)})"
+        line = metrics_line(float(last.batch.reward[last.index]), row(columns, last.index), label)
+        return Frame(heading, line, history_of(last.batch, last.index, cfg.insect, cfg.options))
 
     # --- Gymnasium VectorEnv API ------------------------------------------------------------------
     def reset(
@@ -333,18 +339,15 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         options: dict[str, Any] | None = None,
     ) -> tuple[np.ndarray, dict[str, Any]]:
         n = self.num_envs
-        if seed is None:
-            seeds: list[int | None] = [None] * n
-        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise ValueError(
-                    f"If seeds are passed as a list the length must match num_envs={n} but got "
-                    f"length={len(seeds)}."
-                )
+        if seed is None or (isinstance(seed, int | np.integer) and not isinstance(seed, bool)):
+            seeds: list[int | None] = [None if seed is None else int(seed) + i for i in range(n)]
+        elif len(seeds := list(seed)) != n:
+            raise ValueError(
+                f"If seeds are passed as a list the length must match num_envs={n} but got "
+                f"length={len(seeds)}."
+            )
         options = dict(options) if options is not None else None
+        index = np.arange(n)  # every sub-env, unless a reset_mask says which
         if options is not None and "reset_mask" in options:
             mask = options.pop("reset_mask")
             if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
@@ -354,8 +357,6 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             if not mask.any():
                 raise ValueError("options['reset_mask'] must contain at least one True value")
             index = np.flatnonzero(mask)
-        else:
-            index = np.arange(n)
         columns = self.reset_envs(index, [seeds[i] for i in index], options)
         if self.render_mode == "human":
             self.render()
@@ -366,48 +367,41 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n = self.num_envs
         actions = action_array(actions, (n, N_PARAMETERS))
-        clip = self.config.clip_actions
+        # next-step autoreset resets the ended sub-envs instead; Disabled refuses them (same-step
+        # autoreset has none: it resets them within the step that ended them, below)
+        resetting, stepping = np.flatnonzero(self._ended), np.flatnonzero(~self._ended)
+        if resetting.size and self.autoreset_mode == AutoresetMode.DISABLED:
+            raise RuntimeError(
+                f"sub-envs {resetting.tolist()} have ended their episodes; with "
+                "autoreset_mode=Disabled reset them first, e.g. "
+                "reset(options={'reset_mask': mask})"
+            )
         rewards = np.zeros(n, dtype=np.float64)
         terminations = np.zeros(n, dtype=np.bool_)
         truncations = np.zeros(n, dtype=np.bool_)
         infos: dict[str, Any] = {}
-
-        def fly_envs(index: np.ndarray) -> tuple[Any, np.ndarray]:
-            batch, final = self.step_checked(index, action_values(actions[index], clip))
-            rewards[index] = batch.reward
-            terminations[index] = batch.terminated
-            truncations[index] = batch.truncated
-            return batch, final
-
-        if self.autoreset_mode == AutoresetMode.SAME_STEP:
-            batch, final = fly_envs(np.arange(n))
-            ended = terminations | truncations
-            columns = batch.info_columns()
-            running, done = np.flatnonzero(~ended), np.flatnonzero(ended)
-            if running.size:
-                add_columns(infos, take_columns(columns, running), running, n)
-            if done.size:
+        if stepping.size:
+            arr = action_values(actions[stepping], self.config.clip_actions)
+            batch, final = self.step_checked(stepping, arr)
+            rewards[stepping] = batch.reward
+            terminations[stepping] = batch.terminated
+            truncations[stepping] = batch.truncated
+            columns, ended = batch.info_columns(), batch.terminated | batch.truncated
+            ended &= self.autoreset_mode == AutoresetMode.SAME_STEP
+            if not ended.all():
+                add_columns(infos, take_columns(columns, ~ended), stepping[~ended], n)
+            if ended.any():  # same-step: the final observations and infos, then the resets
+                done, mask = stepping[ended], np.isin(np.arange(n), stepping[ended])
                 final_obs = np.full(n, None, dtype=object)
-                for i in done:
-                    final_obs[i] = final[i]
-                infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
-                infos["final_info"] = add_columns({}, take_columns(columns, done), done, n)
-                infos["_final_info"] = ended.copy()
+                for i, observation in zip(done, final[ended], strict=True):
+                    final_obs[i] = observation
+                infos["final_obs"], infos["_final_obs"] = final_obs, mask
+                infos["final_info"] = add_columns({}, take_columns(columns, ended), done, n)
+                infos["_final_info"] = mask.copy()
                 add_columns(infos, self.autoreset(done), done, n)
-        else:  # next-step autoreset resets the ended sub-envs instead; Disabled refuses them
-            resetting, stepping = np.flatnonzero(self._ended), np.flatnonzero(~self._ended)
-            if resetting.size and self.autoreset_mode == AutoresetMode.DISABLED:
-                raise RuntimeError(
-                    f"sub-envs {resetting.tolist()} have ended their episodes; with "
-                    "autoreset_mode=Disabled reset them first, e.g. "
-                    "reset(options={'reset_mask': mask})"
-                )
-            if stepping.size:
-                batch, _ = fly_envs(stepping)
-                add_columns(infos, batch.info_columns(), stepping, n)
-            if resetting.size:
-                columns = self.reset_envs(resetting, [None] * resetting.size, None)
-                add_columns(infos, columns, resetting, n)
+        if resetting.size:
+            columns = self.reset_envs(resetting, [None] * resetting.size, None)
+            add_columns(infos, columns, resetting, n)
 
         if self.render_mode == "human":
             self.render()
@@ -417,20 +411,18 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         """rgb_array: one frame per sub-env (costly for large n); human: sub-env 0 in a window."""
         if self.render_mode is None:
             return None
-        title = self.spec.id if self.spec is not None else type(self).__name__
-        if self.render_mode == "rgb_array":
-            return tuple(
-                self._show(self.frame(i, f"{title} [env {i}]")) for i in range(self.num_envs)
-            )  # type: ignore[return-value]
-        self._show(self.frame(0, f"{title} [env 0]"))
-        return None
+        title, count = self._title(), self.num_envs if self.render_mode == "rgb_array" else 1
+        frames = tuple(self._show(self.frame(i, f"{title} [env {i}]")) for i in range(count))
+        return frames if self.render_mode == "rgb_array" else None  # type: ignore[return-value]
 
     def close_extras(self, **kwargs: Any) -> None:
         self._close_window()
 
+    def _title(self) -> str:
+        return self.spec.id if self.spec is not None else type(self).__name__
+
     def __repr__(self) -> str:
-        name = self.spec.id if self.spec is not None else type(self).__name__
-        return f"{type(self).__name__}({name}, num_envs={self.num_envs})"
+        return f"{type(self).__name__}({self._title()}, num_envs={self.num_envs})"
 
 
 class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
@@ -441,8 +433,6 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     vector_class: ClassVar[type[FlightVectorEnv]] = FlightVectorEnv
     #: The task's config class (``vector_class.config_class``), for the registry's look-ups.
     config_class: ClassVar[type[FlightConfig]] = FlightConfig
-    title: ClassVar[str] = "Flight"
-    """Name in render titles when the env was not made by ``gym.make`` (no spec)."""
     vector_env: FlightVectorEnv
     """The vector env this env steps: ``vector_class`` with ``num_envs=1``, autoreset disabled."""
 
@@ -454,9 +444,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         self, render_mode: str | None = None, *, config: FlightConfig | None = None, **kwargs: Any
     ) -> None:
         self.render_mode = check_render_mode(render_mode)
-        self.vector_env = self.vector_class(
-            1, None, AutoresetMode.DISABLED, config=config, **kwargs
-        )
+        self.vector_env = self.vector_class(1, None, "Disabled", config=config, **kwargs)
         self.config = self.vector_env.config
         self.core = self.vector_env.core
         self.action_space = action_space()
@@ -481,17 +469,12 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         return self.vector_env.observations[0], row(columns, 0)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        arr = check_actions(action, (N_PARAMETERS,), self.config.clip_actions)
+        arr = action_values(action_array(action, (N_PARAMETERS,)), self.config.clip_actions)
         batch, observations = self.vector_env.step_checked(_FIRST, arr[None, :])
         if self.render_mode == "human":
             self.render()
-        return (
-            observations[0].copy(),
-            float(batch.reward[0]),
-            bool(batch.terminated[0]),
-            bool(batch.truncated[0]),
-            row(batch.info_columns(), 0),
-        )
+        ended = bool(batch.terminated[0]), bool(batch.truncated[0])
+        return observations[0].copy(), float(batch.reward[0]), *ended, row(batch.info_columns(), 0)
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -500,7 +483,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
                 f"render_mode in {list(RENDER_MODES)}"
             )
             return None
-        title = self.spec.id if self.spec is not None else self.title
+        title = self.spec.id if self.spec is not None else self.config.name  # the task's name
         return self._show(self.vector_env.frame(0, title))
 
     def close(self) -> None:

@@ -2,23 +2,26 @@
 
 Every option of an env is a field of its config, so ``env.config`` describes (and reproduces)
 what it does; :meth:`FlightConfig.from_kwargs` maps the flat ``gym.make`` keywords onto it.
+The env layer's validators are here too: each value is checked once, where an env receives it
+(a config field when built, an action in ``step``, a reset option in ``reset``), with a
+``ValueError`` naming it, its value and what is allowed.
 """
 
 from __future__ import annotations
 
+import math
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import Any, ClassVar
 
 import numpy as np
 
-from ..physics import PLANFORMS, Dragonfly, ModelOptions
+from ..physics import N_PARAMETERS, PARAMETER_NAMES, PLANFORMS, Dragonfly, ModelOptions
 from ..physics.backends import check_backend
-from ..physics.checks import is_real as _is_real
+from ..physics.checks import is_real, real_array, shown
 from ..physics.insect import insect_mapping, load_insect
-from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations
-from .validate import check_interval, check_real, store_checked
+from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations, refusal
 
 #: ``ModelOptions`` fields whose ``gym.make`` keyword differs from the field's name: ``power``
 #: was Accelerate's old condition name, so the power accounting is ``power_convention`` there.
@@ -104,15 +107,13 @@ def fixed_or_sampled(
         if isinstance(sampled, str | bytes) or not hasattr(sampled, "__len__") or len(sampled) != 2:
             raise ValueError(f"{owner}.{range_name} = {sampled!r}; {allowed}")
         low, high = sampled
-        if not (_is_real(low) and _is_real(high) and envelope[0] <= low < high <= envelope[1]):
+        if not (is_real(low) and is_real(high) and envelope[0] <= low < high <= envelope[1]):
             raise ValueError(f"{owner}.{range_name} = {sampled!r} {unit}; {allowed}")
         object.__setattr__(config, range_name, (float(low), float(high)))
     else:
         value = default if fixed is None else fixed
-        if not (_is_real(value) and envelope[0] <= value <= envelope[1]):  # NaN fails it
-            raise ValueError(
-                f"{owner}.{name} = {value!r} {unit}; allowed: a finite number {inside}"
-            )
+        if not (is_real(value) and envelope[0] <= value <= envelope[1]):  # NaN fails it
+            raise refusal(f"{owner}.{name}", value, f"a finite number {inside}", unit)
         object.__setattr__(config, name, float(value))
 
 
@@ -214,6 +215,12 @@ class FlightConfig:
             raise ValueError(f"{owner}: {error}") from None
         object.__setattr__(self, "backend", backend)
         object.__setattr__(self, "device", device)
+        chosen = self.OBJECTIVES.keyword if self.OBJECTIVES is not None else None
+        if chosen is not None and getattr(self, chosen) not in self.OBJECTIVES.choices:
+            allowed = ", ".join(map(repr, self.OBJECTIVES.choices))
+            raise refusal(f"{owner}.{chosen}", getattr(self, chosen), allowed)
+        if self.CONDITION is not None:  # its envelope, fixed value or range
+            normalise_condition(self)
 
     # --- the observed flight condition (read from the fields CONDITION names) ---------------
     @property
@@ -231,12 +238,12 @@ class FlightConfig:
     @property
     def condition_range(self) -> tuple[float, float] | None:
         """The range the condition is sampled from at reset, or None for a fixed condition."""
-        return getattr(self, self.declared_condition.range_keyword)
+        return getattr(self, f"{self.condition_key or self.declared_condition.keyword}_range")
 
     @property
     def fixed_condition(self) -> float | None:
-        """The fixed condition, or None when it is sampled."""
-        return getattr(self, self.declared_condition.keyword)
+        """The fixed condition (``condition_key``'s), or None when it is sampled."""
+        return getattr(self, self.condition_key or self.declared_condition.keyword)
 
     @property
     def objective_metric(self) -> str:
@@ -286,10 +293,7 @@ class FlightConfig:
         if "planform" in kwargs:
             planform = kwargs.pop("planform")
             if planform not in PLANFORMS:
-                raise ValueError(
-                    f"{cls.name}: planform = {planform!r}; allowed: "
-                    f"{', '.join(map(repr, PLANFORMS))}"
-                )
+                raise refusal(f"{cls.name}: planform", planform, ", ".join(map(repr, PLANFORMS)))
             insect = insect.with_planform(planform)
         if "rotational_coefficient" in kwargs:
             given = kwargs.pop("rotational_coefficient")
@@ -299,7 +303,7 @@ class FlightConfig:
             }
             insect = replace(insect, **wings)
         for name in _REAL_MODEL_OPTIONS:
-            if name in kwargs and not _is_real(kwargs[name]):
+            if name in kwargs and not is_real(kwargs[name]):
                 raise ValueError(f"{cls.name}: {name} = {kwargs[name]!r}; allowed: a finite number")
         allowed = "a tandem_env.ModelOptions"
         options = _overridden(cls.name, kwargs, "options", MODEL_OPTION_KWARGS, allowed)
@@ -318,3 +322,114 @@ class FlightConfig:
     def describe(self) -> str:
         """One line naming the condition, for titles and reprs (the declared condition's)."""
         return self.declared_condition.describe(self.fixed_condition, self.condition_range)
+
+
+# --- the env layer's validators ------------------------------------------------------------
+RENDER_MODES: tuple[str, ...] = ("human", "rgb_array")
+
+
+def check_real(owner: str, name: str, value: Any, unit: str, low: float, high: float) -> float:
+    """``value`` as a float if it is a finite real number in [low, high]; else a ValueError."""
+    if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
+        allowed = f"a finite number from {low:g} to {high:g}{' ' + unit if unit else ''}"
+        raise refusal(f"{owner}.{name}", value, allowed, unit)
+    return float(value)
+
+
+def check_interval(
+    owner: str, name: str, value: Any, unit: str, limits: tuple[float, float]
+) -> tuple[float, float]:
+    """``value`` as a ``(low, high)`` float pair with limits[0] <= low < high <= limits[1]."""
+    pair = () if isinstance(value, str | bytes) or not hasattr(value, "__len__") else tuple(value)
+    finite = len(pair) == 2 and all(is_real(v) and math.isfinite(v) for v in pair)
+    if not (finite and limits[0] <= pair[0] < pair[1] <= limits[1]):
+        allowed = f"a pair (low, high) of finite numbers with {limits[0]:g} <= low < high <= "
+        raise refusal(f"{owner}.{name}", value, f"{allowed}{limits[1]:g} {unit}", unit)
+    return float(pair[0]), float(pair[1])
+
+
+def store_checked(config: Any, name: str, check: Callable[..., Any], *limits: Any) -> Any:
+    """Check the field ``name`` of the frozen dataclass ``config`` with ``check(owner, name,
+    value, *limits)`` (a validator above) and store what it returns; that value."""
+    value = check(type(config).__name__, name, getattr(config, name), *limits)
+    object.__setattr__(config, name, value)
+    return value
+
+
+def check_render_mode(render_mode: Any) -> str | None:
+    """``render_mode`` if it is None or one of :data:`RENDER_MODES`."""
+    if render_mode is not None and render_mode not in RENDER_MODES:
+        raise refusal("render_mode", render_mode, f"None, {', '.join(map(repr, RENDER_MODES))}")
+    return render_mode
+
+
+def action_array(actions: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """``actions`` as a float64 array of ``shape`` (real numbers; values not checked yet)."""
+    if len(shape) == 1:
+        what, allowed = "action", f"{N_PARAMETERS} real numbers in [-1, 1] (a normalised stroke)"
+    else:
+        what, allowed = "actions", f"real numbers of shape {shape} (one normalised stroke per env)"
+    arr = real_array(actions, what, allowed)
+    if arr.shape != shape:
+        raise ValueError(
+            f"{what} must have shape {shape} here (one normalised stroke of {N_PARAMETERS} "
+            f"parameters per env, fore-wing first); got shape {arr.shape}"
+        )
+    return arr
+
+
+def action_values(arr: np.ndarray, clip: bool) -> np.ndarray:
+    """Actions (an array from :func:`action_array`) finite and inside [-1, 1], or clipped into
+    it when ``clip``; only the actions that are evaluated are checked (a vector env ignores the
+    actions of the sub-envs it resets)."""
+    flat = arr.reshape(-1, N_PARAMETERS)
+    finite = np.isfinite(flat)
+    if not finite.all():
+        row, col = np.argwhere(~finite)[0]
+        raise ValueError(
+            f"action {row}: {PARAMETER_NAMES[col]} = {flat[row, col]!r} is not finite; "
+            "allowed: finite numbers in [-1, 1]"
+        )
+    if clip:
+        return np.clip(arr, -1.0, 1.0)
+    outside = np.abs(flat) > 1.0
+    if outside.any():
+        row, col = np.argwhere(outside)[0]
+        raise ValueError(
+            f"action {row}: {PARAMETER_NAMES[col]} = {shown(flat[row, col], -1, 1)} is outside "
+            "the action space; allowed: [-1, 1]. A client that does not clip its policy's "
+            "actions to the space (skrl, a hand-written loop) should make the env with "
+            "clip_actions=True, which clips them"
+        )
+    return arr
+
+
+def reset_options(
+    owner: str,
+    options: Any,
+    ranges: Mapping[str, tuple[float, float, str, str]],
+    renamed: Mapping[str, str],
+) -> dict[str, float]:
+    """The numbers ``options`` of ``reset`` set (empty for None): its keys all of ``ranges``
+    (key -> (low, high, unit, what that range is)), each value finite and in its range; an
+    old key of ``renamed`` is refused naming its new one."""
+    if not options:
+        return {}
+    if not isinstance(options, Mapping):
+        raise ValueError(f"reset options = {options!r}; allowed: None or a dict")
+    for key in options:
+        if key in renamed:
+            raise ValueError(f"{owner}: reset option {key!r} was renamed; use {renamed[key]!r}")
+    unknown = sorted(set(options) - set(ranges))
+    if unknown:
+        raise ValueError(
+            f"{owner}: unknown reset option(s) {unknown}; allowed: {', '.join(map(repr, ranges))}"
+        )
+    values = {}
+    for key, value in options.items():
+        low, high, unit, where = ranges[key]
+        if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
+            allowed = f"a number in {where} {low:g} to {high:g} {unit}"
+            raise refusal(f"{owner}: reset option {key}", value, allowed)
+        values[key] = float(value)
+    return values

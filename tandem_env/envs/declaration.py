@@ -20,30 +20,28 @@ from ..physics import Result
 from ..physics.checks import is_real
 
 
+def refusal(what: str, value: Any, allowed: str, unit: str = "") -> ValueError:
+    """The ``ValueError`` refusing ``value`` of ``what`` (e.g. ``"LevelFlightConfig.speed"``), in
+    the one form the env layer's checks share: ``"{what} = {value!r} {unit}; allowed: …"``."""
+    return ValueError(f"{what} = {value!r}{' ' + unit if unit else ''}; allowed: {allowed}")
+
+
 def _identifier(owner: str, name: str, value: Any) -> None:
     if not isinstance(value, str) or not value.isidentifier():
-        raise ValueError(
-            f"{owner}.{name} = {value!r}; allowed: a Python identifier (it is a keyword "
-            "argument or an info key), e.g. 'speed'"
-        )
+        allowed = "a Python identifier (it is a keyword argument or an info key), e.g. 'speed'"
+        raise refusal(f"{owner}.{name}", value, allowed)
 
 
 def _text(owner: str, name: str, value: Any) -> None:
     if not isinstance(value, str) or not value.strip():
-        raise ValueError(f"{owner}.{name} = {value!r}; allowed: a non-empty string")
+        raise refusal(f"{owner}.{name}", value, "a non-empty string")
 
 
 def _pair(owner: str, name: str, value: Any, unit: str) -> tuple[float, float]:
-    if not (
-        isinstance(value, tuple)
-        and len(value) == 2
-        and all(is_real(v) and math.isfinite(v) for v in value)
-        and value[0] < value[1]
-    ):
-        raise ValueError(
-            f"{owner}.{name} = {value!r}; allowed: a tuple (low, high) of finite numbers with "
-            f"low < high [{unit}]"
-        )
+    pair = isinstance(value, tuple) and len(value) == 2
+    if not (pair and all(is_real(v) and math.isfinite(v) for v in value) and value[0] < value[1]):
+        allowed = f"a tuple (low, high) of finite numbers with low < high [{unit}]"
+        raise refusal(f"{owner}.{name}", value, allowed)
     return float(value[0]), float(value[1])
 
 
@@ -91,29 +89,22 @@ class TaskCondition:
             _text(owner, name, getattr(self, name))
         limits = _pair(owner, "limits", self.limits, self.unit)
         envelope = _pair(owner, "envelope", self.envelope, self.unit)
+        what, inside = f"{owner} {self.keyword!r}: ", f"({envelope[0]:g}, {envelope[1]:g})"
         if not limits[0] <= envelope[0] < envelope[1] <= limits[1]:
-            raise ValueError(
-                f"{owner} {self.keyword!r}: envelope = {self.envelope!r} {self.unit}; allowed: "
-                f"inside limits = ({limits[0]:g}, {limits[1]:g}) {self.unit}"
-            )
+            allowed = f"inside limits = ({limits[0]:g}, {limits[1]:g}) {self.unit}"
+            raise refusal(f"{what}envelope", self.envelope, allowed, self.unit)
         if not (is_real(self.default) and envelope[0] <= self.default <= envelope[1]):
-            raise ValueError(
-                f"{owner} {self.keyword!r}: default = {self.default!r} {self.unit}; allowed: a "
-                f"number inside envelope = ({envelope[0]:g}, {envelope[1]:g}) {self.unit}"
-            )
+            allowed = f"a number inside envelope = {inside} {self.unit}"
+            raise refusal(f"{what}default", self.default, allowed, self.unit)
         sweep = self.sweep
-        inside = isinstance(sweep, tuple) and len(sweep) > 0
-        inside = inside and all(is_real(v) and envelope[0] <= v <= envelope[1] for v in sweep)
-        if not (inside and all(a < b for a, b in pairwise(sweep))):
-            raise ValueError(
-                f"{owner} {self.keyword!r}: sweep = {sweep!r}; allowed: a non-empty, increasing "
-                f"tuple of numbers inside envelope = ({envelope[0]:g}, {envelope[1]:g}) "
-                f"{self.unit}"
-            )
-        object.__setattr__(self, "limits", limits)
-        object.__setattr__(self, "envelope", envelope)
-        object.__setattr__(self, "default", float(self.default))
-        object.__setattr__(self, "sweep", tuple(float(v) for v in sweep))
+        ok = isinstance(sweep, tuple) and len(sweep) > 0
+        ok = ok and all(is_real(v) and envelope[0] <= v <= envelope[1] for v in sweep)
+        if not (ok and all(a < b for a, b in pairwise(sweep))):
+            allowed = f"a non-empty, increasing tuple of numbers inside envelope = {inside}"
+            raise refusal(f"{what}sweep", sweep, f"{allowed} {self.unit}")
+        stored = {"limits": limits, "envelope": envelope, "default": float(self.default)}
+        for name, value in {**stored, "sweep": tuple(float(v) for v in sweep)}.items():
+            object.__setattr__(self, name, value)
 
     @property
     def range_keyword(self) -> str:
@@ -163,22 +154,19 @@ class TaskObjectives:
 
     def __post_init__(self) -> None:
         owner = "TaskObjectives"
-        if not (
-            isinstance(self.metrics, Mapping)
-            and self.metrics
-            and all(isinstance(k, str) and k for k in self.metrics)
-        ):
-            raise ValueError(
-                f"{owner}.metrics = {self.metrics!r}; allowed: a non-empty mapping of objective "
-                "choice -> info metric, e.g. {'efficiency': 'efficiency'}"
+        metrics = self.metrics
+        named = isinstance(metrics, Mapping) and all(isinstance(k, str) and k for k in metrics)
+        if not (named and metrics):
+            allowed = (
+                "a non-empty mapping of objective choice -> info metric, e.g. {'efficiency': "
+                "'efficiency'}"
             )
+            raise refusal(f"{owner}.metrics", self.metrics, allowed)
         for choice, metric in self.metrics.items():
             _identifier(f"{owner}.metrics[{choice!r}]", "metric", metric)
         if self.default not in self.metrics:
-            raise ValueError(
-                f"{owner}.default = {self.default!r}; allowed: one of "
-                f"{', '.join(map(repr, self.metrics))}"
-            )
+            allowed = f"one of {', '.join(map(repr, self.metrics))}"
+            raise refusal(f"{owner}.default", self.default, allowed)
         if self.keyword is not None:
             _identifier(owner, "keyword", self.keyword)
         elif len(self.metrics) > 1:
@@ -275,11 +263,9 @@ class TaskDeclaration:
     def __post_init__(self) -> None:
         _text("TaskDeclaration", "name", self.name)
         _text("TaskDeclaration", "summary", self.summary)
-        if (
-            (self.condition is None) != (self.objectives is None)
-            or not (self.condition is None or isinstance(self.condition, TaskCondition))
-            or not (self.objectives is None or isinstance(self.objectives, TaskObjectives))
-        ):
+        kinds = isinstance(self.condition, TaskCondition | None)
+        kinds = kinds and isinstance(self.objectives, TaskObjectives | None)
+        if (self.condition is None) != (self.objectives is None) or not kinds:
             raise TypeError(
                 f"TaskDeclaration {self.name!r}: condition = {self.condition!r}, objectives = "
                 f"{self.objectives!r}; allowed: a TaskCondition and a TaskObjectives, or neither"
@@ -313,16 +299,14 @@ def check_declarations(cls: type) -> None:
     """Check a config class's ``DECLARATION`` against its own fields, when the class is
     defined (a declaration naming a missing field fails at import, naming both)."""
     declaration = getattr(cls, "DECLARATION", None)
-    if declaration is None:
-        return
-    if not isinstance(declaration, TaskDeclaration):
+    if not isinstance(declaration, TaskDeclaration | None):
         raise TypeError(
             f"{cls.__name__}: DECLARATION = {declaration!r}; allowed: a TaskDeclaration "
             "(tandem_env.envs.declaration)"
         )
-    condition, objectives = declaration.condition, declaration.objectives
-    if condition is None or objectives is None:
+    if declaration is None or declaration.condition is None or declaration.objectives is None:
         return
+    condition, objectives = declaration.condition, declaration.objectives
     fields = {name for klass in cls.__mro__ for name in getattr(klass, "__annotations__", {})}
     needed = [*condition.keywords, *([objectives.keyword] if objectives.keyword else [])]
     missing = [name for name in needed if name not in fields]

@@ -61,8 +61,7 @@ def net_force(result: Result, insect: Dragonfly) -> tuple[np.ndarray, np.ndarray
     ``fore/hind_lift_to_weight``), which do not depend on ``thrust_split``; with
     ``thrust_split="body"`` the result equals (F̄_h·W, F̄_v·W) exactly in exact arithmetic.
     """
-    weight = insect.weight
-    gamma = result.flight_path_angle
+    weight, gamma = insect.weight, result.flight_path_angle
     drag = body_drag(result.speed, insect)
     fx = result.fore_horizontal_force + result.hind_horizontal_force - drag * np.cos(gamma)
     lift = (result.fore_lift_to_weight + result.hind_lift_to_weight) * weight

@@ -13,9 +13,8 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import SPEED_LIMITS, ModelOptions, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import MODEL_OPTION_KWARGS, FlightConfig, normalise_condition
+from .config import MODEL_OPTION_KWARGS, FlightConfig, check_real, store_checked
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
-from .validate import check_real, store_checked
 
 
 # Each violation is max(0, −margin). The margins are array-agnostic (builtin abs, arithmetic):
@@ -72,7 +71,6 @@ class LevelFlightConfig(FlightConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        normalise_condition(self)
         store_checked(self, "constraint_tolerance", check_real, "", 0.0, 0.999)
 
     @property
@@ -129,7 +127,6 @@ class LevelFlightEnv(FlightEnv):
 
     vector_class = LevelFlightVectorEnv
     config: LevelFlightConfig
-    title = "LevelFlight"
 
 
 def model_option_keywords() -> str:

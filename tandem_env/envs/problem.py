@@ -53,7 +53,20 @@ class ProblemGradient:
 class FlightProblem:
     """Maximise a one-cycle task's objective over the normalised stroke box subject to its
     :attr:`constraints` (feasible: every violation exactly 0; a gradient-based optimiser holds
-    the signed margins >= 0), at a condition given with each evaluation."""
+    the signed margins >= 0), at a condition given with each evaluation.
+
+    Its attributes, set once: ``config`` (the env's: insect, model options, backend, device,
+    objective choice), ``declaration`` (the task's: condition, objectives, constraints),
+    ``condition`` (the declared condition every evaluation takes: keyword, unit, the model's
+    limits, the paper's envelope and sweep), ``objective_metric`` (the
+    :class:`~tandem_env.physics.Result` field maximised, e.g. ``"efficiency"``),
+    ``normalised_low`` / ``normalised_high`` (28,) (the action box's bounds), ``physical_low`` /
+    ``physical_high`` (28,) (their images, the insect's stroke bounds [Hz, deg, -], Table 4's
+    unless it sets its own), ``discrete`` (28,) bool (each wing's harmonic N), ``constraints``
+    (the declaration's, in the margins' column order), ``constraint_names`` (their violations'
+    ``info`` keys) and ``has_margins`` (every constraint declares a signed margin, what
+    :meth:`differentiate` and a gradient-based optimiser need). The arrays are read-only.
+    """
 
     #: Number of action coordinates (28).
     dim: int = N_PARAMETERS
@@ -62,88 +75,36 @@ class FlightProblem:
 
     def __init__(self, core: Any, normalised_low: float, normalised_high: float) -> None:
         self._core = core
-        self._low = np.full(N_PARAMETERS, float(normalised_low))
-        self._high = np.full(N_PARAMETERS, float(normalised_high))
-
-    # --- what the problem is -----------------------------------------------------------------
-    @property
-    def config(self) -> FlightConfig:
-        """The env's config: insect, model options, backend, device, objective choice."""
-        return self._core.config
-
-    @property
-    def declaration(self) -> TaskDeclaration:
-        """The task's declaration (condition, objectives, constraints)."""
-        return self._core.declaration
-
-    @property
-    def condition(self) -> TaskCondition:
-        """The declared condition every evaluation takes: its keyword, unit, the model's limits,
-        the paper's envelope and sweep."""
-        return self.config.declared_condition
-
-    @property
-    def objective_metric(self) -> str:
-        """The :class:`~tandem_env.physics.Result` field maximised, e.g. ``"efficiency"``."""
-        return self.config.objective_metric
-
-    @property
-    def normalised_low(self) -> np.ndarray:
-        """(28,) lower bounds of the normalised coordinates (the action box's)."""
-        return self._low.copy()
-
-    @property
-    def normalised_high(self) -> np.ndarray:
-        """(28,) upper bounds of the normalised coordinates (the action box's)."""
-        return self._high.copy()
-
-    @property
-    def physical_low(self) -> np.ndarray:
-        """(28,) the insect's lower stroke bounds [Hz, deg, -] (Table 4's unless it sets its
-        own), what :attr:`normalised_low` maps to."""
-        return np.array(self.config.insect.stroke_bounds.lower)
-
-    @property
-    def physical_high(self) -> np.ndarray:
-        """(28,) the insect's upper stroke bounds [Hz, deg, -], :attr:`normalised_high`'s image."""
-        return np.array(self.config.insect.stroke_bounds.upper)
-
-    @property
-    def discrete(self) -> np.ndarray:
-        """(28,) bool: the discrete coordinates (each wing's harmonic N)."""
-        return DISCRETE.copy()
-
-    @property
-    def constraints(self) -> tuple[Constraint, ...]:
-        """The task's constraints (its declaration's), in the margins' column order."""
-        return self.declaration.constraints
-
-    @property
-    def constraint_names(self) -> tuple[str, ...]:
-        """Each constraint's name (its violation's ``info`` key), in column order."""
-        return tuple(c.name for c in self.constraints)
-
-    @property
-    def has_margins(self) -> bool:
-        """Every constraint declares a signed margin (what :meth:`differentiate` and a
-        gradient-based optimiser need); a task without constraints has none to declare."""
-        return all(c.margin is not None for c in self.constraints)
+        self.config: FlightConfig = core.config
+        self.declaration: TaskDeclaration = core.declaration
+        self.condition: TaskCondition = self.config.declared_condition
+        self.objective_metric: str = self.config.objective_metric
+        bounds = self.config.insect.stroke_bounds
+        arrays = {"normalised_low": np.full(N_PARAMETERS, float(normalised_low))}
+        arrays["normalised_high"] = np.full(N_PARAMETERS, float(normalised_high))
+        arrays |= {"physical_low": np.array(bounds.lower), "physical_high": np.array(bounds.upper)}
+        for name, array in {**arrays, "discrete": DISCRETE.copy()}.items():
+            array.setflags(write=False)
+            setattr(self, name, array)
+        self.constraints: tuple[Constraint, ...] = self.declaration.constraints
+        self.constraint_names = tuple(c.name for c in self.constraints)
+        self.has_margins = all(c.margin is not None for c in self.constraints)
 
     # --- evaluation ---------------------------------------------------------------------------
     def evaluate(self, actions: np.ndarray, conditions: Any) -> ProblemEvaluation:
         """B normalised strokes (B, 28) at ``conditions`` (one or (B,) values, the condition's
         unit) in ONE model call, scored as the env scores a step; ValueError for a bad shape,
         a stroke outside the box or a condition the model refuses."""
-        strokes = self._actions(actions)
-        values = self._conditions(conditions, strokes.shape[0])
+        strokes, values = self._inputs(actions, conditions)
         bounds = self.config.insect.stroke_bounds
         batch = self._core.step(normalised_to_physical(strokes, bounds), values)
-        return ProblemEvaluation(
-            objective=np.asarray(batch.objective, dtype=np.float64),
-            margins=self._margins(batch.result),
-            feasible=np.asarray(batch.feasible, dtype=bool),
-            result=batch.result,
-        )
+        margins = None  # (B, m); None where a constraint declares none
+        if self.has_margins:
+            margins = np.array([c.margin(batch.result, self.config) for c in self.constraints])
+            margins = margins.reshape(-1, len(strokes)).T
+        objective = np.asarray(batch.objective, dtype=np.float64)
+        feasible = np.asarray(batch.feasible, dtype=bool)
+        return ProblemEvaluation(objective, margins, feasible, batch.result)
 
     def differentiate(self, actions: np.ndarray, conditions: Any) -> ProblemGradient:
         """:meth:`evaluate` with the objective's gradient and the margins' Jacobian w.r.t. the
@@ -157,51 +118,35 @@ class FlightProblem:
                 f"{self.declaration.name}: constraints {missing} declare no margin; allowed: "
                 "differentiate a task whose every constraint has one (Constraint.margin)"
             )
-        strokes = self._actions(actions)
+        strokes, values = self._inputs(actions, conditions)
         config = self.config
-        speed, power = self._core.flight_conditions(self._conditions(conditions, strokes.shape[0]))
-        metric = config.objective_metric
-        functions = [lambda result: getattr(result, metric)]
+        speed, power = self._core.flight_conditions(values)
+        functions = [lambda result: getattr(result, self.objective_metric)]
         functions += [lambda result, c=c: c.margin(result, config) for c in self.constraints]
         model = {"insect": config.insect, "options": config.options, "device": config.device}
         result, values, jacobian = torch_model.normalised_jacobian(
             strokes, functions, speed, power, **model
         )
-        evaluation = ProblemEvaluation(
-            objective=values[:, 0],
-            margins=values[:, 1:],
-            feasible=np.asarray(self.declaration.score(result, config).feasible, dtype=bool),
-            result=result,
-        )
+        feasible = np.asarray(self.declaration.score(result, config).feasible, dtype=bool)
+        evaluation = ProblemEvaluation(values[:, 0], values[:, 1:], feasible, result)
         return ProblemGradient(evaluation, jacobian[:, 0], jacobian[:, 1:])
 
-    # --- checks -------------------------------------------------------------------------------
-    def _margins(self, result: Result) -> np.ndarray | None:
-        """(B, m) the constraints' margins on ``result``; None where one declares none."""
-        if not self.has_margins:
-            return None
-        if not self.constraints:
-            return np.zeros((result.power.shape[0], 0))
-        return np.column_stack([c.margin(result, self.config) for c in self.constraints])
-
-    def _actions(self, actions: np.ndarray) -> np.ndarray:
+    def _inputs(self, actions: Any, conditions: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(strokes (B, 28), conditions (B,)), checked."""
         strokes = np.asarray(actions, dtype=np.float64)
         if strokes.ndim != 2 or strokes.shape[1] != N_PARAMETERS:
             raise ValueError(
                 f"actions of shape {strokes.shape}; allowed: (B, {N_PARAMETERS}) normalised strokes"
             )
-        return strokes
-
-    def _conditions(self, conditions: Any, count: int) -> np.ndarray:
-        values = np.asarray(conditions, dtype=np.float64)
+        count, values = len(strokes), np.asarray(conditions, dtype=np.float64)
         if values.ndim == 0:
-            return np.full(count, float(values))
+            return strokes, np.full(count, float(values))
         if values.shape != (count,):
             raise ValueError(
                 f"conditions of shape {values.shape} for {count} strokes; allowed: one "
                 f"{self.condition.keyword} [{self.condition.unit}] or one per stroke ({count},)"
             )
-        return values
+        return strokes, values
 
     def __repr__(self) -> str:
         return (

@@ -165,11 +165,9 @@ class ReferenceTable:
                 "allowed: one series per task, objective and planform"
                 + (", all of them" if complete else "")
             )
-        for entry in series:
+        for entry in series if complete else ():
             grid = REFERENCE_GRID[entry.env_id][1]
-            if complete and (
-                entry.conditions != grid or not all(p["feasible"] is True for p in entry.points)
-            ):
+            if entry.conditions != grid or not all(p["feasible"] is True for p in entry.points):
                 raise ValueError(
                     f"{entry.env_id} {entry.objective} {entry.planform}: conditions "
                     f"{list(entry.conditions)}, not a feasible optimum at every point of the "
@@ -189,11 +187,8 @@ def _series(entry: Any) -> ReferenceSeries:
     points = tuple(entry["points"])
     grid = REFERENCE_GRID[env_id][1]
     conditions = tuple(p["condition"] for p in points)
-    if (
-        not points
-        or not all(is_real(c) and any(abs(c - g) < 1e-9 for g in grid) for c in conditions)
-        or not np.all(np.diff(conditions) > 0)
-    ):
+    on_grid = all(is_real(c) and any(abs(c - g) < 1e-9 for g in grid) for c in conditions)
+    if not (points and on_grid and np.all(np.diff(conditions) > 0)):
         raise ValueError(
             f"series {name}: conditions {list(conditions)}; allowed: increasing points of the "
             f"grid {list(grid)}"
@@ -201,9 +196,8 @@ def _series(entry: Any) -> ReferenceSeries:
     for point in points:
         where = f"series {name} at {point['condition']:g}"
         feasible, value = point["feasible"], point["objective"]
-        if not isinstance(feasible, bool) or (
-            feasible and not (is_real(value) and math.isfinite(value) and value > 0)
-        ):
+        good = is_real(value) and math.isfinite(value) and value > 0
+        if not isinstance(feasible, bool) or (feasible and not good):
             raise ValueError(
                 f"{where}: objective {value!r}, feasible {feasible!r}; allowed: feasible true or "
                 "false, and a finite objective above 0 where feasible"
@@ -214,14 +208,10 @@ def _series(entry: Any) -> ReferenceSeries:
                 f"{where}: normalised_stroke of shape {stroke.shape}; allowed: 28 finite numbers "
                 "in [-1, 1]"
             )
+    objectives = tuple(float(p["objective"]) if p["feasible"] else math.nan for p in points)
+    conditions = tuple(float(c) for c in conditions)
     return ReferenceSeries(
-        env_id=env_id,
-        objective=objective,
-        planform=planform,
-        fingerprint=entry["fingerprint"],
-        conditions=tuple(float(c) for c in conditions),
-        objectives=tuple(float(p["objective"]) if p["feasible"] else math.nan for p in points),
-        points=points,
+        env_id, objective, planform, entry["fingerprint"], conditions, objectives, points
     )
 
 

@@ -7,12 +7,11 @@ alone); ``human`` mode redraws a pyplot window. Matplotlib is imported only when
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from ..physics import Dragonfly, ModelOptions, stroke_history
-from .columns import row
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -28,10 +27,7 @@ _FIGURE_SIZE = (FRAME_SIZE[0] / FRAME_DPI, FRAME_SIZE[1] / FRAME_DPI)  # [in]
 HISTORY_SAMPLES = 120
 
 #: Line style of each wing in the frames.
-WING_STYLE: dict[str, dict[str, str]] = {
-    "fore": {"color": "tab:blue"},
-    "hind": {"color": "tab:red"},
-}
+WING_STYLE = {"fore": {"color": "tab:blue"}, "hind": {"color": "tab:red"}}
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
 
@@ -102,60 +98,23 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
     return side, angle_axes
 
 
-def to_rgb_array(frame: Frame) -> np.ndarray:
-    """The frame as an (H, W, 3) uint8 image, drawn off-screen with Agg."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=_FIGURE_SIZE, dpi=FRAME_DPI)
-    canvas = FigureCanvasAgg(figure)
-    draw(figure, frame)
-    canvas.draw()
-    return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
-
-
 def metrics_line(reward: float, info: dict[str, Any], objective_label: str) -> str:
     """The subtitle: "reward … | objective … | L/W … | F̄_h … | P/m … | feasible"."""
     infeasible = f"infeasible (violation {info['constraint_violation']:.3g})"
-    parts = [
-        f"reward {reward:.4g}",
-        f"{objective_label} {info['objective']:.4g}",
-        f"L/W {info['lift_to_weight']:.3f}",
-        f"F̄_h {info['excess_horizontal']:+.3f}",
-        f"P/m {info['power_per_mass']:.1f} W/kg",
-        "feasible" if info["feasible"] else infeasible,
-    ]
-    return " | ".join(parts)
+    feasible = "feasible" if info["feasible"] else infeasible
+    return (
+        f"reward {reward:.4g} | {objective_label} {info['objective']:.4g} | "
+        f"L/W {info['lift_to_weight']:.3f} | F̄_h {info['excess_horizontal']:+.3f} | "
+        f"P/m {info['power_per_mass']:.1f} W/kg | {feasible}"
+    )
 
 
 # --- the envs' side: what a sub-env shows, and the window an env owns ---------------------------
-@dataclass
-class LastStep:
+class LastStep(NamedTuple):
     """What the picture of a sub-env shows: its last evaluated step, or None."""
 
     batch: Any
     index: int
-
-
-def frame_for(core: Any, title: str, condition: float | None, last: LastStep | None) -> Frame:
-    """The render frame of one one-cycle env."""
-    cfg = core.config
-    if last is not None:
-        # The condition the stroke was evaluated in (a same-step autoreset may have moved on).
-        speed = float(last.batch.result.speed[last.index])
-        power = float(last.batch.result.available_power[last.index])
-    elif condition is not None:
-        speed, power = (float(v[0]) for v in core.flight_conditions(np.array([condition])))
-    else:
-        return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
-    heading = f"{title}  V = {speed:.3g} m/s, P_avail = {power:.3g} W/kg"
-    if last is None:
-        return Frame(title=heading, subtitle="no stroke evaluated since reset", history=None)
-    columns = {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}
-    keyword = cfg.OBJECTIVES.keyword if cfg.OBJECTIVES is not None else None
-    label = "η" if keyword is None else f"F̄ ({getattr(cfg, keyword)})"
-    line = metrics_line(float(last.batch.reward[last.index]), row(columns, last.index), label)
-    return Frame(heading, line, history_of(last.batch, last.index, cfg.insect, cfg.options))
 
 
 class RenderWindow:
@@ -167,8 +126,14 @@ class RenderWindow:
 
     def _show(self, frame: Frame) -> np.ndarray | None:
         """``frame`` as an RGB array (``render_mode="rgb_array"``) or in the window (``"human"``)."""
-        if self.render_mode == "rgb_array":  # type: ignore[attr-defined]
-            return to_rgb_array(frame)
+        if self.render_mode == "rgb_array":  # type: ignore[attr-defined]  # drawn off-screen
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from matplotlib.figure import Figure
+
+            canvas = FigureCanvasAgg(Figure(figsize=_FIGURE_SIZE, dpi=FRAME_DPI))
+            draw(canvas.figure, frame)
+            canvas.draw()
+            return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
         import matplotlib
         import matplotlib.pyplot as plt
 
@@ -190,6 +155,4 @@ class RenderWindow:
             self._window = None
 
     def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_window"] = None
-        return state
+        return {**self.__dict__, "_window": None}

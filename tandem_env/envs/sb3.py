@@ -20,8 +20,8 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
 from .base import FlightVectorEnv
-from .columns import rows
 from .registration import check_env_id
+from .step_batch import rows
 
 
 class TandemVecEnv(VecEnv):
@@ -36,19 +36,14 @@ class TandemVecEnv(VecEnv):
                 'gym.make_vec(id, num_envs=n, vectorization_mode="vector_entry_point")'
             )
         self.vector_env = vector_env
+        self.config = vector_env.config
+        """The env config (``LevelFlightConfig``, ``AccelerateConfig`` or ``SpeedChangeConfig``)."""
         super().__init__(
             vector_env.num_envs, vector_env.single_observation_space, vector_env.single_action_space
         )
         # What DummyVecEnv reports: the single env's metadata.
-        self.metadata = {
-            key: value for key, value in vector_env.metadata.items() if key != "autoreset_mode"
-        }
+        self.metadata = {k: v for k, v in vector_env.metadata.items() if k != "autoreset_mode"}
         self._actions: np.ndarray | None = None
-
-    @property
-    def config(self) -> Any:
-        """The env config (``LevelFlightConfig``, ``AccelerateConfig`` or ``SpeedChangeConfig``)."""
-        return self.vector_env.config
 
     def reset(self) -> np.ndarray:
         everyone = np.arange(self.num_envs)
@@ -91,8 +86,7 @@ class TandemVecEnv(VecEnv):
     def get_images(self) -> Sequence[np.ndarray | None]:
         if self.render_mode != "rgb_array":
             return [None] * self.num_envs
-        frames = self.vector_env.render()
-        return list(frames) if frames is not None else [None] * self.num_envs
+        return list(self.vector_env.render())  # type: ignore[arg-type]  # a frame per sub-env
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         value = getattr(self.vector_env, attr_name)

@@ -6,9 +6,7 @@ vector env and the single env; declaration and config: :mod:`~tandem_env.envs.sp
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -16,21 +14,14 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import SPEED_LIMITS
 from .base import EnvGenerators, EnvOptions, FlightEnv, FlightVectorEnv, fly
-from .columns import Columns, row
+from .config import reset_options
 from .dynamics import advance, cycle_time, flight_path, net_force
-from .render import Frame, LastStep, history_of
+from .render import Frame, history_of
 from .speed_change_config import MAX_BAND_SPEED, SPEED_CHANGE, SpeedChangeConfig
-from .step_batch import StepBatch
-from .validate import reset_options
+from .step_batch import Columns, StepBatch, row
 
 #: What each observation entry is, in order (each mapped to [-1, 1], see ``observe``).
-OBSERVATION_NAMES: tuple[str, ...] = (
-    "forward_speed",
-    "vertical_speed",
-    "altitude",
-    "target_speed",
-    "cycles_left",
-)
+OBSERVATION_NAMES = ("forward_speed", "vertical_speed", "altitude", "target_speed", "cycles_left")
 
 
 @dataclass(frozen=True)
@@ -113,30 +104,23 @@ class SpeedChangeCore:
         """States of ``count`` new episodes: u = u₀, w = w₀ (0), h = 0, target u*; episode k
         draws u₀, then u*, from ``rngs(k)`` where sampled and not set by ``options[k]``."""
         cfg = self.config
-        flight = Flight.empty(count)
-        for k in range(count):
-            given = self._options(options[k])
-            for name, state in (("start_speed", "forward_speed"), ("target_speed", "target_speed")):
-                if name in given:
-                    value = given[name]
-                elif getattr(cfg, name) is not None:
-                    value = getattr(cfg, name)
-                else:
-                    value = rngs(k).uniform(*getattr(cfg, f"{name}_range"))
-                getattr(flight, state)[k] = value
-            # Within ±MAX_BAND_SPEED (checked in _options), as u is within the band.
-            flight.vertical_speed[k] = given.get("vertical_speed", 0.0)
-        return flight
-
-    def _options(self, options: Mapping[str, Any] | None) -> dict[str, float]:
-        cfg = self.config
         low, high = cfg.speed_envelope
         ranges = {  # key -> (low, high, unit, what the range is)
             "start_speed": (low, high, "m/s", "the speed envelope"),
             "target_speed": (low, high, "m/s", "the speed envelope"),
             "vertical_speed": (-MAX_BAND_SPEED, MAX_BAND_SPEED, "m/s", "the range"),
         }
-        return reset_options(cfg.name, options, ranges, {})
+        flight = Flight.empty(count)
+        for k in range(count):
+            given = reset_options(cfg.name, options[k], ranges, {})
+            for name, state in (("start_speed", "forward_speed"), ("target_speed", "target_speed")):
+                value = given.get(name, getattr(cfg, name))  # None: sampled
+                if value is None:
+                    value = rngs(k).uniform(*getattr(cfg, f"{name}_range"))
+                getattr(flight, state)[k] = value
+            # Within ±MAX_BAND_SPEED (checked above), as u is within the band.
+            flight.vertical_speed[k] = given.get("vertical_speed", 0.0)
+        return flight
 
     def observe(self, flight: Flight) -> np.ndarray:
         """(B, 5) float32 observations (:data:`OBSERVATION_NAMES`), clipped to [-1, 1]: u over
@@ -147,23 +131,19 @@ class SpeedChangeCore:
         def scaled(value: np.ndarray, band: tuple[float, float]) -> np.ndarray:
             return 2.0 * (value - band[0]) / (band[1] - band[0]) - 1.0
 
-        obs = np.stack(
-            [
-                scaled(flight.forward_speed, cfg.forward_speed_band),
-                flight.vertical_speed / cfg.vertical_speed_scale,
-                flight.altitude / cfg.altitude_band,
-                scaled(flight.target_speed, cfg.speed_envelope),
-                scaled((cfg.max_cycles - flight.cycle).astype(np.float64), (0.0, cfg.max_cycles)),
-            ],
-            axis=1,
-        )
-        return np.clip(obs, -1.0, 1.0).astype(np.float32)
+        columns = [
+            scaled(flight.forward_speed, cfg.forward_speed_band),
+            flight.vertical_speed / cfg.vertical_speed_scale,
+            flight.altitude / cfg.altitude_band,
+            scaled(flight.target_speed, cfg.speed_envelope),
+            scaled((cfg.max_cycles - flight.cycle).astype(np.float64), (0.0, cfg.max_cycles)),
+        ]
+        return np.clip(np.stack(columns, axis=1), -1.0, 1.0).astype(np.float32)
 
     def reset_columns(self, flight: Flight) -> Columns:
         """Reset info columns: the start state and the power cap."""
-        columns = flight.columns()
-        columns["available_power"] = np.full(len(flight.cycle), self.config.available_power)
-        return columns
+        power = np.full(len(flight.cycle), self.config.available_power)
+        return {**flight.columns(), "available_power": power}
 
     # --- one cycle -------------------------------------------------------------------------
     def step(self, physical: np.ndarray, flight: Flight) -> CycleBatch:
@@ -176,15 +156,8 @@ class SpeedChangeCore:
         fx, fz = net_force(result, cfg.insect)
         before = (flight.forward_speed, flight.vertical_speed, flight.distance, flight.altitude)
         u, w, x, h = advance(*before, fx, fz, cfg.insect.body_mass, dt)
-        after = Flight(
-            forward_speed=u,
-            vertical_speed=w,
-            altitude=h,
-            distance=x,
-            time=flight.time + dt,
-            target_speed=flight.target_speed.copy(),
-            cycle=flight.cycle + 1,
-        )
+        # the state after: u, w, h, x, the time, the same target u* and the cycle count
+        after = Flight(u, w, h, x, flight.time + dt, flight.target_speed.copy(), flight.cycle + 1)
         low, high = cfg.forward_speed_band
         left_altitude = np.abs(h) > cfg.altitude_band
         left_speed = (u < low) | (u > high) | (np.hypot(u, w) > SPEED_LIMITS[1])
@@ -209,32 +182,9 @@ class SpeedChangeCore:
         scores = SPEED_CHANGE.score(result, cfg)
         motion = {"cycle_time": dt, "force_horizontal": fx, "force_vertical": fz, "energy": energy}
         motion |= {**terms, "left_altitude_band": left_altitude, "left_speed_band": left_speed}
-        strokes = StepBatch.scored(physical, result, objective, scores, cfg.penalty)
+        penalty = cfg.penalty.penalty(scores.total, scores.feasible)
+        strokes = StepBatch(physical, result, objective, scores, penalty)
         return CycleBatch(strokes, after, motion, terminated, truncated)
-
-
-def frame_for(
-    core: SpeedChangeCore, title: str, flight: Flight | None, index: int, last: LastStep | None
-) -> Frame:
-    """The render frame of episode ``index`` of ``flight``."""
-    cfg = core.config
-    if flight is None:
-        return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
-    state = row(flight.columns(), index)
-    heading = (
-        f"{title}  u = {state['forward_speed']:.3g} m/s -> u* = {state['target_speed']:.3g} m/s, "
-        f"h = {state['altitude']:+.3g} m, cycle {state['cycle']}/{cfg.max_cycles}"
-    )
-    if last is None:
-        return Frame(title=heading, subtitle="no cycle flown since reset", history=None)
-    batch, k = last.batch, last.index
-    result, motion = batch.strokes.result, row(batch.motion, k)
-    subtitle = (
-        f"reward {float(batch.reward[k]):.4g} | F_x {motion['force_horizontal'] * 1e3:+.3f} "
-        f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | "
-        f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
-    )
-    return Frame(heading, subtitle, history_of(batch.strokes, k, cfg.insect, cfg.options))
 
 
 # VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
@@ -272,8 +222,25 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
         return batch, observations
 
     def frame(self, i: int, title: str) -> Frame:
-        flight = self._state if self._started[i] else None
-        return frame_for(self.core, title, flight, i, self._last[i])
+        """The render frame of sub-env ``i``: its state, its last cycle's forces and power."""
+        cfg, last = self.config, self._last[i]
+        if not self._started[i]:
+            return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
+        state = row(self._state.columns(), i)
+        heading = (
+            f"{title}  u = {state['forward_speed']:.3g} m/s -> u* = {state['target_speed']:.3g} "
+            f"m/s, h = {state['altitude']:+.3g} m, cycle {state['cycle']}/{cfg.max_cycles}"
+        )
+        if last is None:
+            return Frame(title=heading, subtitle="no cycle flown since reset", history=None)
+        batch, k = last.batch, last.index
+        result, motion = batch.strokes.result, row(batch.motion, k)
+        subtitle = (
+            f"reward {float(batch.reward[k]):.4g} | F_x {motion['force_horizontal'] * 1e3:+.3f} "
+            f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | P/m "
+            f"{float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
+        )
+        return Frame(heading, subtitle, history_of(batch.strokes, k, cfg.insect, cfg.options))
 
 
 class SpeedChangeEnv(FlightEnv):
@@ -305,7 +272,6 @@ class SpeedChangeEnv(FlightEnv):
     vector_class = SpeedChangeVectorEnv
     vector_env: SpeedChangeVectorEnv
     config: SpeedChangeConfig
-    title = "SpeedChange"
 
     @property
     def flight(self) -> Flight | None:

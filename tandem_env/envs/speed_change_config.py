@@ -3,15 +3,15 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar
 
 from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
+from ..physics.checks import is_integer
 from ..physics.stroke import WING_NAMES
-from .config import FlightConfig, fixed_or_sampled
-from .declaration import POWER_CAP, TaskDeclaration
+from .config import FlightConfig, check_interval, check_real, fixed_or_sampled, store_checked
+from .declaration import POWER_CAP, TaskDeclaration, refusal
 from .level_flight import LEVEL_FLIGHT
-from .validate import check_count, check_interval, check_real, store_checked
 
 #: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
 #: envelope (``LEVEL_FLIGHT.condition.envelope``), where a steady level stroke exists.
@@ -51,30 +51,21 @@ class SpeedChangeReward:
     time integrals (docs/envs.md). A weight of 0 switches a term off.
     """
 
-    progress: float = 1.0
+    progress: float = field(default=1.0, metadata={"unit": "1/(m/s)"})
     """Per m/s of speed error removed [1/(m/s)]."""
-    speed: float = 1.0
+    speed: float = field(default=1.0, metadata={"unit": "1/m"})
     """Per metre of speed error × time [1/m] (1 (m/s)·s of error costs 1)."""
-    altitude: float = 2.0
+    altitude: float = field(default=2.0, metadata={"unit": "1/(m·s)"})
     """Per metre-second of altitude error [1/(m·s)]."""
-    energy: float = 50.0
+    energy: float = field(default=50.0, metadata={"unit": "1/J"})
     """Per joule spent by the wings [1/J]: level flight at 40 W/kg for 1.3 s costs about 0.3."""
-    termination: float = 0.2
+    termination: float = field(default=0.2, metadata={"unit": "per cycle not flown"})
     """Per cycle not flown when the episode terminates early: above the most a cycle inside
     the bands costs (:meth:`SpeedChangeConfig.max_cycle_cost`, ≈ 0.14)."""
 
-    TERMS: ClassVar[tuple[str, ...]] = ("progress", "speed", "altitude", "energy", "termination")
-    UNITS: ClassVar[dict[str, str]] = {
-        "progress": "1/(m/s)",
-        "speed": "1/m",
-        "altitude": "1/(m·s)",
-        "energy": "1/J",
-        "termination": "per cycle not flown",
-    }
-
     def __post_init__(self) -> None:
-        for name in self.TERMS:
-            store_checked(self, name, check_real, f"[{self.UNITS[name]}]", 0.0, 1e9)
+        for term in fields(self):
+            store_checked(self, term.name, check_real, f"[{term.metadata['unit']}]", 0.0, 1e9)
 
     @classmethod
     def build(cls, value: Any) -> SpeedChangeReward:
@@ -83,18 +74,17 @@ class SpeedChangeReward:
             return cls()
         if isinstance(value, cls):
             return value
+        terms = [term.name for term in fields(cls)]
         if isinstance(value, Mapping):
-            unknown = sorted(set(value) - set(cls.TERMS))
+            unknown = sorted(set(value) - set(terms))
             if unknown:
                 raise ValueError(
                     f"SpeedChange: unknown reward term(s) {', '.join(map(repr, unknown))}; "
-                    f"allowed: {', '.join(cls.TERMS)} (weights >= 0)"
+                    f"allowed: {', '.join(terms)} (weights >= 0)"
                 )
             return cls(**value)
-        raise ValueError(
-            f"SpeedChange: reward = {value!r}; allowed: a SpeedChangeReward or a dict of weights "
-            f"for the terms {', '.join(cls.TERMS)}"
-        )
+        allowed = f"a SpeedChangeReward or a dict of weights for the terms {', '.join(terms)}"
+        raise refusal("SpeedChange: reward", value, allowed)
 
 
 #: SpeedChange's default model options: the body's drag in the thrust split (see ``options``).
@@ -142,26 +132,25 @@ class SpeedChangeConfig(FlightConfig):
         envelope = store_checked(self, "speed_envelope", check_interval, "m/s", SPEED_LIMITS)
         fixed_or_sampled(self, "start_speed", "speed_envelope", "m/s", None)
         fixed_or_sampled(self, "target_speed", "speed_envelope", "m/s", None)
-        store_checked(
-            self, "max_cycles", check_count, 1, MAX_CYCLES, "wing-beat cycles per episode"
-        )
-        band = check_interval(
-            owner, "forward_speed_band", self.forward_speed_band, "m/s", SPEED_LIMITS
-        )
+        if not is_integer(self.max_cycles) or not 1 <= self.max_cycles <= MAX_CYCLES:
+            allowed = f"an integer from 1 to {MAX_CYCLES} (wing-beat cycles per episode)"
+            raise refusal(f"{owner}.max_cycles", self.max_cycles, allowed)
+        object.__setattr__(self, "max_cycles", int(self.max_cycles))
+        given = self.forward_speed_band
+        band = store_checked(self, "forward_speed_band", check_interval, "m/s", SPEED_LIMITS)
         if band[1] > MAX_BAND_SPEED:
-            raise ValueError(
-                f"{owner}.forward_speed_band = {self.forward_speed_band!r} m/s; allowed: a band "
-                f"within 0 to {MAX_BAND_SPEED:g} m/s (MAX_BAND_SPEED: beyond it one wing-beat's "
-                "step, the cycle-mean force held over the cycle, is not resolved and can reverse "
-                "the flight)"
+            allowed = (
+                f"a band within 0 to {MAX_BAND_SPEED:g} m/s (MAX_BAND_SPEED: beyond it one "
+                "wing-beat's step, the cycle-mean force held over the cycle, is not resolved and "
+                "can reverse the flight)"
             )
+            raise refusal(f"{owner}.forward_speed_band", given, allowed, "m/s")
         for end, value in zip(("low", "high"), envelope, strict=True):
             if not band[0] <= value <= band[1]:
                 raise ValueError(
                     f"{owner}.speed_envelope {end} = {value:g} m/s; allowed: a speed inside "
                     f"{owner}.forward_speed_band = ({band[0]:g}, {band[1]:g}) m/s"
                 )
-        object.__setattr__(self, "forward_speed_band", band)
         for name, unit in (("altitude_band", "m"), ("vertical_speed_scale", "m/s")):
             store_checked(self, name, check_real, unit, 1e-6, 1e3)
         object.__setattr__(self, "reward", SpeedChangeReward.build(self.reward))
@@ -171,18 +160,12 @@ class SpeedChangeConfig(FlightConfig):
         """As :meth:`FlightConfig.from_kwargs`, with ``thrust_split="body"`` unless given."""
         return super().from_kwargs(**{"options": BODY_SPLIT, **kwargs})
 
-    # --- the condition the training tools vary: the target speed -----------------------------
     @property
     def envelope(self) -> tuple[float, float]:
+        """The target speed's envelope (``speed_envelope``): the condition the training tools
+        vary (``condition_key``; its fixed value and range are ``target_speed`` and
+        ``target_speed_range``)."""
         return self.speed_envelope
-
-    @property
-    def condition_range(self) -> tuple[float, float] | None:
-        return self.target_speed_range
-
-    @property
-    def fixed_condition(self) -> float | None:
-        return self.target_speed
 
     @property
     def available_power(self) -> float:
@@ -195,20 +178,17 @@ class SpeedChangeConfig(FlightConfig):
         largest speed and altitude errors. The termination weight should exceed it."""
         lowest = self.insect.stroke_bounds.lower
         slowest = 1.0 / min(lowest[PARAMETER_NAMES.index(f"{w}_frequency")] for w in WING_NAMES)
-        band = self.forward_speed_band
-        env = self.speed_envelope
+        band, env, w = self.forward_speed_band, self.speed_envelope, self.reward
         speed_error = max(band[1] - env[0], env[1] - band[0])
         power = self.available_power * self.insect.body_mass
-        w = self.reward
-        return slowest * (
-            w.speed * speed_error + w.altitude * self.altitude_band + w.energy * power
-        )
+        cost = w.speed * speed_error + w.altitude * self.altitude_band + w.energy * power
+        return slowest * cost
 
     def describe(self) -> str:
         def part(name: str) -> str:
             fixed, sampled = getattr(self, name), getattr(self, f"{name}_range")
-            return (
-                f"{fixed:g} m/s" if fixed is not None else f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
-            )
+            if fixed is not None:
+                return f"{fixed:g} m/s"
+            return f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
 
         return f"u0 = {part('start_speed')} -> u* = {part('target_speed')}"

@@ -1,15 +1,62 @@
-"""B evaluated strokes of a task, scored, before they are split per env (:class:`StepBatch`)."""
+"""B evaluated strokes of a task, scored, before they are split per env (:class:`StepBatch`), and
+their info columns: name -> (B,) array (or a nested dict of columns, ``"stroke"``) for B envs,
+split into per-env dicts or Gymnasium's masked dict of arrays without a loop per metric.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..physics import PARAMETER_NAMES, Result
-from .columns import Columns
-from .config import PenaltyConfig
 from .declaration import Scores
+
+Columns = dict[str, Any]
+"""Info columns: name -> (B,) array, or a nested dict of columns (``"stroke"``)."""
+
+
+def row(columns: Columns, index: int) -> dict[str, Any]:
+    """One env's info dict: plain Python floats, bools and ints (nested dicts stay dicts)."""
+    return {
+        k: row(v, index) if isinstance(v, dict) else v[index].item() for k, v in columns.items()
+    }
+
+
+def take_columns(columns: Columns, index: np.ndarray) -> Columns:
+    """The rows ``index`` of info columns (nested dicts too)."""
+    return {
+        k: take_columns(v, index) if isinstance(v, dict) else v[index] for k, v in columns.items()
+    }
+
+
+def rows(columns: Columns, count: int) -> list[dict[str, Any]]:
+    """All ``count`` info dicts at once (``tolist`` per column, not per value)."""
+    lists = [rows(v, count) if isinstance(v, dict) else v.tolist() for v in columns.values()]
+    if not lists:
+        return [{} for _ in range(count)]
+    return [dict(zip(columns, values, strict=True)) for values in zip(*lists, strict=True)]
+
+
+def add_columns(
+    infos: dict[str, Any], columns: Columns, index: np.ndarray, num_envs: int
+) -> dict[str, Any]:
+    """Scatter columns for envs ``index`` into Gymnasium's vector info dict with ``_key``
+    masks, as ``VectorEnv._add_info`` env by env would (so infos equal SyncVectorEnv's)."""
+    for key, values in columns.items():
+        if isinstance(values, dict):
+            array = add_columns(infos.get(key, {}), values, index, num_envs)
+        else:
+            array = infos.get(key)
+            array = np.zeros(num_envs, dtype=values.dtype) if array is None else array
+            array[index] = values
+        mask = infos.get(f"_{key}")
+        mask = np.zeros(num_envs, dtype=np.bool_) if mask is None else mask
+        mask[index] = True
+        infos[key], infos[f"_{key}"] = array, mask
+    return infos
+
 
 _HARMONIC = {name for name in PARAMETER_NAMES if name.endswith("_elevation_harmonic")}
 
@@ -28,25 +75,14 @@ class StepBatch:
     """The task's constraint violations and feasibility (its declaration's constraints)."""
     penalty: np.ndarray
     """(B,) reward lost to the constraints [reward units] (exactly 0 when feasible)."""
-    reward: np.ndarray
-    """(B,) objective − penalty."""
-    score: np.ndarray | None
+    score: np.ndarray | None = None
     """(B,) the normalised score [-] (:mod:`tandem_env.envs.reference`); None where the
     reference table does not describe the env."""
+    reward: np.ndarray = field(init=False)
+    """(B,) objective − penalty."""
 
-    @classmethod
-    def scored(
-        cls,
-        physical: np.ndarray,
-        result: Result,
-        objective: np.ndarray,
-        scores: Scores,
-        penalty: PenaltyConfig,
-        score: np.ndarray | None = None,
-    ) -> StepBatch:
-        """The batch, its reward the objective penalised by the env's ``penalty``."""
-        lost = penalty.penalty(scores.total, scores.feasible)
-        return cls(physical, result, objective, scores, lost, objective - lost, score)
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "reward", self.objective - self.penalty)
 
     def __len__(self) -> int:
         return int(self.reward.shape[0])

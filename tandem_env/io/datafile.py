@@ -36,40 +36,38 @@ class BoundedLoader(yaml.SafeLoader):
     :data:`MAX_YAML_NODES` values (aliases counted as what they repeat) before building it."""
 
     def compose_document(self) -> yaml.Node:
+        """The document's node, once the values it expands to are counted, each alias in full
+        (one visit per distinct node): :class:`YAMLTooLarge` beyond :data:`MAX_YAML_NODES`,
+        or for a node that holds itself."""
+        sizes: dict[int, int] = {}
+        open_nodes: set[int] = set()
+
+        def size(node: yaml.Node) -> int:
+            key = id(node)
+            if key in sizes:
+                return sizes[key]
+            if key in open_nodes:
+                raise YAMLTooLarge(f"an alias refers to a value that holds it (line {_line(node)})")
+            open_nodes.add(key)
+            children = list(node.value) if isinstance(node, yaml.SequenceNode) else []
+            if isinstance(node, yaml.MappingNode):
+                children = [item for pair in node.value for item in pair]
+            total = 1
+            for child in children:
+                total += size(child)
+                if total > MAX_YAML_NODES:
+                    raise YAMLTooLarge(
+                        f"it expands to more than {MAX_YAML_NODES:,} values (aliases counted as "
+                        f"what they repeat; line {_line(node)}); allowed: at most "
+                        f"{MAX_YAML_NODES:,}"
+                    )
+            open_nodes.discard(key)
+            sizes[key] = total
+            return total
+
         node = super().compose_document()
-        _expanded_size(node)
+        size(node)
         return node
-
-
-def _expanded_size(root: yaml.Node) -> int:
-    """How many values ``root`` expands to, each alias in full (one visit per distinct node);
-    :class:`YAMLTooLarge` beyond :data:`MAX_YAML_NODES`, or for a node that holds itself."""
-    sizes: dict[int, int] = {}
-    open_nodes: set[int] = set()
-
-    def size(node: yaml.Node) -> int:
-        key = id(node)
-        if key in sizes:
-            return sizes[key]
-        if key in open_nodes:
-            raise YAMLTooLarge(f"an alias refers to a value that holds it (line {_line(node)})")
-        open_nodes.add(key)
-        children = list(node.value) if isinstance(node, yaml.SequenceNode) else []
-        if isinstance(node, yaml.MappingNode):
-            children = [item for pair in node.value for item in pair]
-        total = 1
-        for child in children:
-            total += size(child)
-            if total > MAX_YAML_NODES:
-                raise YAMLTooLarge(
-                    f"it expands to more than {MAX_YAML_NODES:,} values (aliases counted as "
-                    f"what they repeat; line {_line(node)}); allowed: at most {MAX_YAML_NODES:,}"
-                )
-        open_nodes.discard(key)
-        sizes[key] = total
-        return total
-
-    return size(root)
 
 
 def _line(node: yaml.Node) -> int:
@@ -109,12 +107,10 @@ class DataLoader(BoundedLoader):
                     continue  # reported by the base class
                 line = key_node.start_mark.line + 1
                 if key in seen:
+                    twice = f"duplicate key {key!r} on lines {seen[key]} and {line}"
+                    problem = f"{twice}; allowed: each key once per mapping"
                     raise yaml.constructor.ConstructorError(
-                        None,
-                        None,
-                        f"duplicate key {key!r} on lines {seen[key]} and {line}; allowed: each "
-                        "key once per mapping",
-                        key_node.start_mark,
+                        None, None, problem, key_node.start_mark
                     )
                 seen[key] = line
         return super().construct_mapping(node, deep=deep)

@@ -81,21 +81,21 @@ def output_directory(
             f"{option} '': an empty path; allowed: a directory path (. for the current folder)"
         )
     path = Path(text)
-    writable = True
+    given, writable = f"{option} {str(path)!r}", True
     for folder in (path, *(path / name for name in folders)):
-        writable = _check_folder(folder, option, path, write) and writable
+        writable = _check_folder(folder, given, write) and writable
     for name in files:
         target = path / name
-        _check_link(target, option, path)
+        _check_link(target, given)
         if target.is_dir():
             raise ValueError(
-                f"{option} {str(path)!r}: {target} is a directory; allowed: a file the command "
-                "writes (remove or rename the directory)"
+                f"{given}: {target} is a directory; allowed: a file the command writes (remove or "
+                "rename the directory)"
             )
     return writable
 
 
-def _check_link(target: Path, option: str, path: Path) -> None:
+def _check_link(target: Path, given: str) -> None:
     """ValueError for a symlink that resolves to nothing (dangling) or into a loop."""
     if not target.is_symlink():
         return
@@ -105,19 +105,18 @@ def _check_link(target: Path, option: str, path: Path) -> None:
         what = f"a dangling symlink (to {os.readlink(target)!r})"
         what = "a symlink loop" if error.errno == errno.ELOOP else what
         raise ValueError(
-            f"{option} {str(path)!r}: {target} is {what}; allowed: a directory this user can "
-            "write, or a symlink to one"
+            f"{given}: {target} is {what}; allowed: a directory this user can write, or a "
+            "symlink to one"
         ) from None
 
 
-def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
+def _check_folder(folder: Path, given: str, write: bool) -> bool:
     existing = folder
-    given = f"{option} {str(path)!r}"
     allowed = "allowed: a directory this user can write (created if missing)"
     try:
         while not os.path.lexists(existing) and existing.parent != existing:
             existing = existing.parent
-        _check_link(existing, option, path)
+        _check_link(existing, given)
         is_dir = existing.is_dir()
     except OSError as error:
         why = error.strerror or error
@@ -169,7 +168,12 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     tmp = Path(tmp_name)
     try:
         yield tmp
-        os.chmod(tmp, _replacement_mode(path))
+        try:
+            mode = stat.S_IMODE(path.stat().st_mode)
+        except OSError:  # no file yet (or none that can be looked at)
+            mode = 0
+        owner = stat.S_IRUSR | stat.S_IWUSR
+        os.chmod(tmp, mode if mode & owner == owner else new_file_mode())
         with open(tmp, "ab") as handle:
             os.fsync(handle.fileno())
         os.replace(tmp, path)
@@ -230,15 +234,6 @@ class FolderLock:
         self.release()
 
 
-def _replacement_mode(path: Path) -> int:
-    try:
-        mode = stat.S_IMODE(path.stat().st_mode)
-    except OSError:  # no file yet (or none that can be looked at)
-        return new_file_mode()
-    owner = stat.S_IRUSR | stat.S_IWUSR
-    return mode if mode & owner == owner else new_file_mode()
-
-
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_path`)."""
     with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as handle:
@@ -272,14 +267,7 @@ def write_csv_atomic(path: str | os.PathLike[str], rows: Sequence[Mapping[str, A
         writer = csv.DictWriter(buffer, fieldnames=list(columns), lineterminator="\n")
         writer.writeheader()
         for row in rows:
-            writer.writerow({key: _csv_cell(value) for key, value in row.items()})
+            cells = {key: to_jsonable(value) for key, value in row.items()}
+            text = {k: json.dumps(v) for k, v in cells.items() if isinstance(v, list | dict)}
+            writer.writerow({**cells, **text})  # None an empty cell, as csv writes it
     write_text_atomic(Path(path), buffer.getvalue())
-
-
-def _csv_cell(value: Any) -> Any:
-    value = to_jsonable(value)
-    if value is None:
-        return ""
-    if isinstance(value, list | dict):
-        return json.dumps(value)
-    return value

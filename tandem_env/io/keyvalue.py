@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import ast
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from typing import Any
 
 import yaml
@@ -31,10 +31,11 @@ def parse_value(text: str) -> Any:
     return text if value is None and text.strip() not in ("", "null", "~", "None") else value
 
 
-def parse_pairs(items: Iterable[str] | None, option: str) -> dict[str, Any]:
-    """``["key=value", "other:value"]`` -> dict; both the zoo's ``:`` and ``=`` are accepted."""
+def parse_pairs(items: str | Iterable[str] | None, option: str) -> dict[str, Any]:
+    """``["key=value", "other:value"]`` (or one such text) -> dict; both the zoo's ``:`` and
+    ``=`` are accepted."""
     out: dict[str, Any] = {}
-    for item in items or ():
+    for item in [items] if isinstance(items, str) else items or ():
         positions = [i for i in (item.find("="), item.find(":")) if i > 0]
         if not positions:
             raise ValueError(
@@ -57,11 +58,7 @@ def parse_pairs(items: Iterable[str] | None, option: str) -> dict[str, Any]:
     return out
 
 
-def _pairs(values: str | Sequence[str], option: str) -> dict[str, Any]:
-    return parse_pairs([values] if isinstance(values, str) else values, option)
-
-
-class KeyValuePairs(checked_by(_pairs, with_option=True)):  # type: ignore[misc]
+class KeyValuePairs(checked_by(parse_pairs, with_option=True)):  # type: ignore[misc]
     """``--option KEY=VALUE ...`` parsed when the command line is (:func:`parse_pairs`): the
     option's value is the dict, or the usage error (exit status 2) naming the bad pair (each
     message of :func:`parse_pairs` names the option)."""
