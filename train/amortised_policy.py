@@ -153,8 +153,9 @@ class Settings:
 
 
 # --- canonical strokes -------------------------------------------------------------------------
-def _wrap_degrees(angle: np.ndarray) -> np.ndarray:
-    return (np.asarray(angle, dtype=np.float64) + 180.0) % 360.0 - 180.0
+def wrap_normalised(x: np.ndarray, half: float = 1.0) -> np.ndarray:
+    """``x`` wrapped onto [-half, half): a normalised phase, or with ``half=180`` one in degrees."""
+    return (np.asarray(x, dtype=np.float64) + half) % (2.0 * half) - half
 
 
 def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
@@ -164,10 +165,10 @@ def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
     out = np.array(physical, dtype=np.float64, copy=True)
     for base, shift in ((0, fore), (N_PER_WING, hind)):
         d = np.broadcast_to(np.asarray(shift, dtype=np.float64), out.shape[:1])
-        out[:, base + _SWEEP] = _wrap_degrees(out[:, base + _SWEEP] - d)
-        out[:, base + _PITCH] = _wrap_degrees(out[:, base + _PITCH] - d)
+        out[:, base + _SWEEP] = wrap_normalised(out[:, base + _SWEEP] - d, 180.0)
+        out[:, base + _PITCH] = wrap_normalised(out[:, base + _PITCH] - d, 180.0)
         harmonic = out[:, base + HARMONIC_INDEX]
-        out[:, base + _ELEVATION] = _wrap_degrees(out[:, base + _ELEVATION] - harmonic * d)
+        out[:, base + _ELEVATION] = wrap_normalised(out[:, base + _ELEVATION] - harmonic * d, 180.0)
     return out
 
 
@@ -179,15 +180,11 @@ def canonicalise(physical: np.ndarray, n_time: int, *, pairs_independent: bool) 
     step = 360.0 / int(n_time)
 
     def steps(phase: np.ndarray) -> np.ndarray:
-        return np.round(_wrap_degrees(phase - CANONICAL_SWEEP_PHASE) / step) * step
+        return np.round(wrap_normalised(phase - CANONICAL_SWEEP_PHASE, 180.0) / step) * step
 
     fore = steps(strokes[:, _SWEEP])
     hind = steps(strokes[:, N_PER_WING + _SWEEP]) if pairs_independent else fore
     return delay(strokes, fore, hind)
-
-
-def wrap_normalised(x: np.ndarray) -> np.ndarray:
-    return (np.asarray(x, dtype=np.float64) + 1.0) % 2.0 - 1.0
 
 
 @dataclass(frozen=True)
@@ -266,22 +263,20 @@ def radial_features(count: int) -> Any:
     return RadialFeatures()
 
 
-def build_network(hidden: Sequence[int], features: int = 0) -> Any:
-    """One branch's MLP 1 -> (``features`` > 0: :func:`radial_features`) -> hidden (tanh) -> 26
-    (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
-    layers: list[Any] = [radial_features(features)] if features else []
-    width = features or 1
-    for h in hidden:
-        layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
-        width = h
-    layers.append(torch.nn.Linear(width, len(CONTINUOUS)))
-    return torch.nn.Sequential(*layers).double()
-
-
 def build_networks(hidden: Sequence[int], features: int, branches: int) -> Any:
-    """The policy's network: one :func:`build_network` per branch (a ``torch.nn.ModuleList``;
-    its ``state_dict`` is the weights file)."""
-    return torch.nn.ModuleList([build_network(hidden, features) for _ in range(branches)])
+    """The policy's network (a ``torch.nn.ModuleList``; its ``state_dict`` is the weights file):
+    per branch an MLP 1 -> (``features`` > 0: :func:`radial_features`) -> hidden (tanh) -> 26
+    (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
+
+    def mlp() -> Any:
+        layers: list[Any] = [radial_features(features)] if features else []
+        width = features or 1
+        for h in hidden:
+            layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
+            width = h
+        return torch.nn.Sequential(*layers, torch.nn.Linear(width, len(CONTINUOUS))).double()
+
+    return torch.nn.ModuleList([mlp() for _ in range(branches)])
 
 
 @dataclass(frozen=True, eq=False)
@@ -402,11 +397,9 @@ def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
     canonical = (_SWEEP, N_PER_WING + _SWEEP) if pairs_independent else (_SWEEP,)
     centres = np.zeros(len(CONTINUOUS))
     for k, j in enumerate(CONTINUOUS):
-        if j not in PHASES:
-            continue
         if j in canonical:
             centres[k] = CANONICAL_SWEEP_PHASE / 180.0
-        else:
+        elif j in PHASES:
             angle = np.pi * targets.strokes[:, j]
             centres[k] = math.atan2(np.sin(angle).mean(), np.cos(angle).mean()) / np.pi
     return centres

@@ -44,16 +44,9 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 #: Keys of a zoo entry that are not model constructor arguments.
 ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs")
 #: Zoo keys this trainer does not implement; refused rather than silently ignored.
-UNSUPPORTED_ZOO_KEYS = (
-    "env_wrapper",
-    "vec_env_wrapper",
-    "callback",
-    "frame_stack",
-    "monitor_kwargs",
-    "replay_buffer_class",
-    "replay_buffer_kwargs",
-    "noise_type",
-    "noise_std",
+UNSUPPORTED_ZOO_KEYS = tuple(
+    "env_wrapper vec_env_wrapper callback frame_stack monitor_kwargs replay_buffer_class "
+    "replay_buffer_kwargs noise_type noise_std".split()
 )
 #: Constructor arguments the zoo turns from "lin_<x>" strings into linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")

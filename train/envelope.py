@@ -27,26 +27,10 @@ from tandem_env.io.files import output_directory, write_csv_atomic
 from train.cli import command, option
 
 #: Columns of envelope.csv.
-COLUMNS: tuple[str, ...] = (
-    "condition",
-    "condition_value",
-    "condition_unit",
-    "objective_name",
-    "objective",
-    "reward",
-    "feasible",
-    "score",
-    "efficiency",
-    "lift_to_weight",
-    "power_per_mass",
-    "excess_vertical",
-    "excess_horizontal",
-    "constraint_violation",
-    "trained_at",
-    "evaluations",
-    "training_timesteps",
-    "model",
-    "run_dir",
+COLUMNS: tuple[str, ...] = tuple(
+    "condition condition_value condition_unit objective_name objective reward feasible score "
+    "efficiency lift_to_weight power_per_mass excess_vertical excess_horizontal "
+    "constraint_violation trained_at evaluations training_timesteps model run_dir".split()
 )
 #: The columns that are a record's attributes.
 RECORD_COLUMNS = COLUMNS[3:8]

@@ -200,8 +200,7 @@ class TrainingMethod:
         if training.best_action is None or is_better(
             final["feasible"], final["reward"], best_feasible, training.best_reward
         ):
-            best_action, best_reward = final["action"], final["reward"]
-            chosen = "final policy"
+            best_action, best_reward, chosen = final["action"], final["reward"], "final policy"
         else:
             best_action = np.asarray(training.best_action, dtype=np.float64)
             best_reward, chosen = training.best_reward, "seen during training"
@@ -331,24 +330,20 @@ def policy_factory(argument: str | None, config: Mapping[str, Any]) -> Method:
     return PolicyMethod(run_dir, which)
 
 
-def training_factory(algo: str):
-    """The factory of ``ppo`` or ``sac``: settings are hyperparameter overrides, plus
-    ``n_envs``, ``conf_file`` (a zoo-format yml) and ``torch_threads``."""
-
-    def factory(argument: str | None, config: Mapping[str, Any]) -> Method:
-        if argument is not None:
-            raise ValueError(f"method {algo!r} takes no ':' argument; got {algo}:{argument}")
-        settings = dict(config)
-        extra = {key: settings.pop(key) for key in _TRAINING_SETTINGS if key in settings}
-        return TrainingMethod(algo, overrides=settings, **extra)
-
-    return factory
+def training_factory(algo: str, argument: str | None, config: Mapping[str, Any]) -> Method:
+    """``ppo`` or ``sac`` (``algo``, bound by :func:`register`): settings are hyperparameter
+    overrides, plus ``n_envs``, ``conf_file`` (a zoo-format yml) and ``torch_threads``."""
+    if argument is not None:
+        raise ValueError(f"method {algo!r} takes no ':' argument; got {algo}:{argument}")
+    settings = dict(config)
+    extra = {key: settings.pop(key) for key in _TRAINING_SETTINGS if key in settings}
+    return TrainingMethod(algo, overrides=settings, **extra)
 
 
 def register() -> None:
     """Register ``ppo``, ``sac`` and ``policy`` with the harness (idempotent)."""
     for algo in ALGOS:
-        register_method(algo, training_factory(algo), replace=True)
+        register_method(algo, functools.partial(training_factory, algo), replace=True)
     register_method("policy", policy_factory, replace=True)
 
 

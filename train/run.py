@@ -27,7 +27,12 @@ from typing import Any
 import numpy as np
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
+from stable_baselines3.common.callbacks import (
+    BaseCallback,
+    CallbackList,
+    ConvertCallback,
+    EvalCallback,
+)
 from stable_baselines3.common.vec_env import sync_envs_normalization
 
 from agents.selection import best_index
@@ -158,21 +163,6 @@ class ResumableEvalCallback(EvalCallback):
             self.evaluations_successes = [list(map(bool, s)) for s in successes[keep]]
 
 
-class SaveVecNormalize(BaseCallback):
-    """Saves the training VecNormalize statistics (called by EvalCallback on a new best model,
-    so ``best_model.zip`` is loaded with the statistics it was evaluated with)."""
-
-    def __init__(self, path: Path, verbose: int = 0) -> None:
-        super().__init__(verbose)
-        self.path = Path(path)
-
-    def _on_step(self) -> bool:
-        normalizer = self.model.get_vec_normalize_env()
-        if normalizer is not None:
-            normalizer.save(str(self.path))
-        return True
-
-
 class RunCheckpoint(BaseCallback):
     """Checkpoints every ``save_freq`` env steps (<= 0: none), keeping the newest ``keep``; and
     Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step (not a
@@ -265,6 +255,13 @@ def train(config: TrainConfig) -> TrainResult:
         start_step = model.num_timesteps
         # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
         checkpoints = RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
+
+        def save_best_statistics(*_: Any) -> bool:
+            """On a new best model, the training VecNormalize statistics: ``best_model.zip``
+            is loaded with those it was evaluated with."""
+            model.get_vec_normalize_env().save(str(layout.best_vecnormalize))
+            return True
+
         hooks: list[BaseCallback] = [PhysicsLogger(recorder), checkpoints]
         if config.eval_freq > 0:
             hooks.append(
@@ -278,7 +275,7 @@ def train(config: TrainConfig) -> TrainResult:
                     verbose=config.verbose,
                     callback_on_new_best=None
                     if hp.normalize is None
-                    else SaveVecNormalize(layout.best_vecnormalize),
+                    else ConvertCallback(save_best_statistics),
                     resume_from_step=None if checkpoint is None else start_step,
                 )
             )
