@@ -1,11 +1,7 @@
-"""Training configuration: zoo-format hyperparameter files, ``key=value`` parsing, the run config.
-
-The hyperparameter files (``train/hyperparams/<algo>.yml``) follow rl-baselines3-zoo: one entry
-per env id plus a ``default`` entry, each a flat mapping of the model's constructor arguments
-and the zoo's own keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs`` as a Python
-string, ``normalize``, ``env_kwargs``). :func:`resolve_hyperparams` turns one entry (plus the
-overrides of the command line) into a :class:`Hyperparams` whose ``model_kwargs`` go straight
-to the SB3 constructor, exactly as the zoo preprocesses them.
+"""Training configuration: the run config (:class:`TrainConfig`) and the hyperparameter files
+(``train/hyperparams/<algo>.yml``, rl-baselines3-zoo's format: per env id, and ``default``, the
+model's constructor arguments and the zoo's keys :data:`ZOO_KEYS`), whose entry (with the
+command line's overrides) :func:`resolve_hyperparams` preprocesses as the zoo does.
 """
 
 from __future__ import annotations
@@ -60,8 +56,7 @@ HYPERPARAM_RANGES: dict[str, tuple[bool, float, float]] = {
     **dict.fromkeys(("ent_coef", "vf_coef", "max_grad_norm"), (False, 0.0, math.inf)),
 }
 
-# Modules whose classes a ``policy_kwargs`` string may name (activation functions, optimisers),
-# under the zoo's spellings.
+# Modules whose classes (activations, optimisers) ``policy_kwargs`` may name, as the zoo spells them
 _POLICY_KWARGS_MODULES = {
     **dict.fromkeys(("nn", "th.nn", "torch.nn"), "torch.nn"),
     **dict.fromkeys(("th.optim", "torch.optim"), "torch.optim"),
@@ -75,11 +70,9 @@ _POLICY_KWARGS_ALLOWED = (
 
 # --- parsing ---------------------------------------------------------------------------------
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
-    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
-
-    The zoo evaluates it; here it is read from its syntax tree and nothing runs (literals,
-    ``dict``/``list``/``tuple`` and ``torch.nn``/``torch.optim`` classes, looked up).
-    """
+    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``,
+    read from its syntax tree, nothing run (the zoo evaluates it): literals, ``dict``, ``list``,
+    ``tuple`` and ``torch.nn`` / ``torch.optim`` classes (looked up)."""
     try:
         value = _policy_value(ast.parse(text, mode="eval").body, text)
     except (SyntaxError, RecursionError, MemoryError) as error:

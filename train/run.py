@@ -1,13 +1,9 @@
-"""One training run: build the envs and the model from a :class:`~train.config.TrainConfig`,
-learn with evaluation, checkpoints, Monitor and TensorBoard logs, and resume a killed run.
-
-:func:`train` is what ``python -m train`` calls; :func:`learn_in_memory` is the lean variant
-the harness's ``ppo`` / ``sac`` methods use (no files, a budget of env steps). The run's
-callbacks: physical metrics to TensorBoard (SB3's own logger only knows rewards: every vector
-step's ``info`` dicts, the model's metrics of each evaluated stroke with its normalised score
-against the reference optimum, docs/reference.md, are averaged into ``physics/*`` scalars, the
-best stroke seen so far logged beside them), an EvalCallback that resumes, checkpoints
-and Ctrl-C (:class:`RunCheckpoint`).
+"""One training run (:func:`train`, what ``python -m train`` calls): the envs and the model of a
+:class:`~train.config.TrainConfig`, learning with evaluations, checkpoints, Monitor and
+TensorBoard logs, and the resume of a killed run; :func:`learn_in_memory` is the lean variant of
+the harness's ``ppo`` / ``sac`` (no files, a budget of env steps). Callbacks: physical metrics
+to TensorBoard (:class:`PhysicsLogger`: SB3's logger only knows rewards), an EvalCallback that
+resumes, checkpoints and Ctrl-C (:class:`RunCheckpoint`).
 """
 
 from __future__ import annotations
@@ -102,7 +98,9 @@ LOGGED_METRICS: tuple[str, ...] = (*STROKE_METRICS, "constraint_violation", "sco
 
 
 class PhysicsLogger(BaseCallback):
-    """Logs batch means of the physical metrics and the best stroke seen so far."""
+    """Logs as ``physics/*`` scalars the means over each vector step's ``info`` dicts of the
+    model's metrics of each evaluated stroke and its normalised score against the reference
+    optimum (docs/reference.md), and the best stroke seen so far."""
 
     def __init__(self, recorder: StrokeRecorder, verbose: int = 0) -> None:
         super().__init__(verbose)
@@ -164,17 +162,12 @@ class ResumableEvalCallback(EvalCallback):
 
 
 class RunCheckpoint(BaseCallback):
-    """Checkpoints every ``save_freq`` env steps (<= 0: none), keeping the newest ``keep``; and
-    Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step (not a
-    KeyboardInterrupt wherever it lands), for :meth:`save` to checkpoint the last rollout's end
-    (:attr:`boundary`: the unfinished rollout's steps are collected again on resume). A second
-    Ctrl-C raises KeyboardInterrupt at once.
-
-    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
-    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
-    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
-    up to the checkpoint's step. Files are named as CheckpointCallback names them.
-    """
+    """Checkpoints every ``save_freq`` env steps (<= 0: none), keeping the newest ``keep``, at a
+    rollout's end (named as SB3's CheckpointCallback names them; that one saves inside
+    ``on_step``, before SAC stores the step's transitions, which a resume would miss). Ctrl-C
+    (SIGINT) while :meth:`catching` stops ``learn`` at the next env step, for :meth:`save` to
+    checkpoint the last rollout's end (:attr:`boundary`: the unfinished rollout is collected
+    again on resume); a second Ctrl-C raises KeyboardInterrupt at once."""
 
     def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
         super().__init__(verbose)

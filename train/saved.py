@@ -308,13 +308,11 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
         for name in archive.namelist():
             if not name.endswith(".pth"):
                 continue
+            stream = io.BytesIO(_read_member(archive, name, path))
             try:
                 with warnings.catch_warnings():  # torch's notes on a file it then refuses
                     warnings.simplefilter("ignore", UserWarning)
-                    stream = io.BytesIO(_read_member(archive, name, path))
                     content = torch.load(stream, map_location="cpu", weights_only=True)
-            except Incomplete:
-                raise
             # An untrusted file: whatever torch's restricted unpickler or its zip reader raise
             # (UnpicklingError, RuntimeError, EOFError, ...) means the same refusal.
             except Exception as error:

@@ -1,15 +1,10 @@
-"""The vector envs a run trains and evaluates on, and the two wrappers that make them useful here.
-
-Training stack (bottom up): the batched SB3 adapter (one model call per step) ->
-:class:`StrokeRecorder` (raw rewards: the best stroke seen and the evaluation count) ->
-``VecMonitor`` (episode CSV with the physical metrics) -> ``VecNormalize`` if the
-hyperparameters ask for it.
-
-Evaluation stack: the adapter over one sub-env per evaluation condition ->
-:class:`ConditionGrid` (every reset starts sub-env i at condition i, so each deterministic
-evaluation scores the same conditions and ``best_model.zip`` is chosen on a fixed, not a
-resampled, set) -> ``VecMonitor`` -> ``VecNormalize(training=False, norm_reward=False)``;
-:func:`evaluate_deterministic` plays a model's deterministic policy on it.
+"""The vector envs a run trains and evaluates on. Training (bottom up): the batched SB3 adapter
+(one model call per step) -> :class:`StrokeRecorder` (raw rewards: the best stroke seen, the
+evaluation count) -> ``VecMonitor`` (episode CSV with the physical metrics) -> ``VecNormalize``
+if the hyperparameters ask for it. Evaluation: the adapter, one sub-env per evaluation condition
+-> :class:`ConditionGrid` (``best_model.zip`` is chosen on a fixed, not a resampled, set) ->
+``VecMonitor`` -> ``VecNormalize(training=False, norm_reward=False)``, on which
+:func:`evaluate_deterministic` plays a model's deterministic policy.
 """
 
 from __future__ import annotations
@@ -34,14 +29,10 @@ MONITOR_KEYWORDS: tuple[str, ...] = (*STROKE_METRICS, "speed", "available_power"
 
 
 class StrokeRecorder(VecEnvWrapper):
-    """Keeps the best stroke any sub-env was given and counts evaluations.
-
-    "Best" is the harness's selection rule (:mod:`agents.selection`: feasible strokes first,
-    then the higher raw reward, the earlier on ties).
-    ``history`` records the best reward so far, feasible or not, so that it never decreases.
-    Sits directly on the adapter, so it sees the exact actions evaluated (after SB3's clipping
-    or rescaling) and the env's own rewards (before any normalisation).
-    """
+    """Keeps the best stroke any sub-env was given by the harness's selection rule
+    (:mod:`agents.selection`: feasible first, then the higher raw reward, the earlier on ties)
+    and counts evaluations. On the adapter itself, it sees the exact actions evaluated (after
+    SB3's clipping or rescaling) and the env's own rewards (before any normalisation)."""
 
     def __init__(self, venv: VecEnv, on_step: Callable[[StrokeRecorder], None] | None = None):
         super().__init__(venv)
@@ -50,12 +41,11 @@ class StrokeRecorder(VecEnvWrapper):
         self.evaluations = 0
         self.steps = 0
         self.best_reward = -np.inf
-        self.best_feasible = False
         self.best_action: np.ndarray | None = None
         self.best_info: dict[str, Any] | None = None
         self.max_reward = -np.inf
         self.history: list[tuple[int, float]] = []
-        """(evaluations, best reward so far, feasible or not) after every vector step."""
+        """(evaluations, best reward so far, feasible or not) per vector step: never decreasing."""
         self._best = BestStroke()
         self._actions: np.ndarray | None = None
         self._on_step = on_step
@@ -78,7 +68,6 @@ class StrokeRecorder(VecEnvWrapper):
         i = None if self._actions is None else self._best.offer(feasible, exact)
         if i is not None:
             self.best_reward = self._best.reward
-            self.best_feasible = self._best.feasible
             self.best_action = self._actions[i].copy()
             self.best_info = {k: v for k, v in infos[i].items() if k != "terminal_observation"}
         clean = np.where(np.isnan(exact), -np.inf, exact)
