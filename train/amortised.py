@@ -1,9 +1,8 @@
-"""An amortised stroke policy trained: one network per branch from the flight condition to a
-stroke (amortised optimisation; Amos 2023, "Tutorial on amortized optimization", Found. Trends
-Mach. Learn. 16(5)). ``python -m train --algo amortised --env ID`` runs :func:`train_run`; the
-policy itself is :mod:`train.amortised_policy`. The method ((a) branches, (b) regression,
-(c) fine-tuning, (d) hand-overs), its settings, its refusals and its measured results are
-specified in docs/training.md, "Amortised policy".
+"""An amortised stroke policy (:mod:`train.amortised_policy`) trained: one network per branch from
+the flight condition to a stroke (Amos 2023, "Tutorial on amortized optimization", Found. Trends
+Mach. Learn. 16(5)); ``python -m train --algo amortised --env ID`` runs :func:`train_run`. The
+method ((a) branches, (b) regression, (c) fine-tuning, (d) hand-overs), its settings, refusals
+and results: docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
@@ -174,10 +173,9 @@ def regression_points(
     targets: Targets, segments: list[tuple[int, int]], domains: np.ndarray, centres: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What each branch's regression fits (conditions (n,), branches (n,), atanh of the tanh
-    outputs (n, 26)): its optima; the :data:`INTERPOLATED` strokes between each two
-    neighbouring ones (within a basin they fly nearly as well); and its end optima at its
-    domain's ends (a constant continuation, so a branch of one training condition starts flat
-    over its domain)."""
+    outputs (n, 26)): its optima, the :data:`INTERPOLATED` strokes between each two neighbours
+    (within a basin they fly nearly as well), and its end optima at its domain's ends (a branch
+    of one training condition starts flat over its domain)."""
     conditions = targets.conditions
     goal = np.arctanh(regression_outputs(targets.strokes, centres))
     owner = [np.full(b - a, i) for i, (a, b) in enumerate(segments)]
@@ -199,10 +197,9 @@ def regression_points(
 
 
 def hand_overs(policy: AmortisedPolicy, problem: Any, penalty_weight: float) -> np.ndarray:
-    """Where each branch hands over to the next: where their domains overlap (inside the gap
-    between their training conditions), at the cut that maximises the summed penalised
-    objective (objective − w·Σ max(0, −margin), the env's reward) of the two branches'
-    strokes on :data:`SWITCH_SAMPLES` conditions there."""
+    """Where each branch hands over to the next: in the overlap of their domains, the cut that
+    maximises the two branches' summed penalised objective (objective − w·Σ max(0, −margin),
+    the env's reward) over :data:`SWITCH_SAMPLES` conditions there."""
     switches = []
     for branch in range(policy.n_branches - 1):
         grid = np.linspace(policy.domains[branch + 1, 0], policy.domains[branch, 1], SWITCH_SAMPLES)

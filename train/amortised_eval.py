@@ -38,10 +38,8 @@ MAX_POLISH = 500
 def record_times(
     records: Sequence[Record], env_id: str, metric: str, planform: str, condition: float
 ) -> tuple[float, float, int] | None:
-    """(wall time of the best record by the selection rule [s], sum over the records [s],
-    records) of the harness ``records`` at ``condition`` (the table's: its seeds and its
-    continuation rounds, read by the store, :func:`agents.store.read_record_files`); None where
-    there are none."""
+    """(wall time of the best record by the selection rule [s], sum over the records [s], count)
+    of the harness ``records`` (the table's seeds and rounds) at ``condition``; None if none."""
     found = [
         record
         for record in records

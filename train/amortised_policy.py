@@ -1,9 +1,8 @@
-"""The amortised stroke policy (trained by :mod:`train.amortised`): its map from the condition
-c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its training settings
-(:class:`Settings`, the one home of their limits), its canonical targets (:func:`canonicalise`)
-and its run folder (``<env>.pt``, the weights, read with ``torch.load(weights_only=True)``, and
-``policy.json`` beside :class:`~train.run_folder.RunLayout`'s files). What the map is and why,
-the canonical targets and the folder's files: docs/training.md, "Amortised policy".
+"""The amortised stroke policy (trained by :mod:`train.amortised`; docs/training.md, "Amortised
+policy"): its map from the condition c [the condition's unit] to a normalised stroke (28,) in
+[-1, 1], its training settings (:class:`Settings`, the one home of their limits), canonical
+targets (:func:`canonicalise`) and run folder files (``<env>.pt``, the weights, read with
+``torch.load(weights_only=True)``, and ``policy.json``).
 """
 
 from __future__ import annotations
@@ -96,12 +95,10 @@ class Settings:
     """Weight of the regression loss on the training targets during the fine-tuning [-]."""
     branch_reach: float = field(default=0.6, metadata=_allowed(0.5, 1.0, above=True))
     """How far each branch's domain reaches into the gap to a neighbouring branch's training
-    condition, as a fraction of the gap [-] (above 0.5, so that both branches cover its
-    middle, where they hand over)."""
+    condition [fraction of the gap] (above 0.5: both cover its middle, where they hand over)."""
     branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
-    """Two neighbouring training optima share a branch when the stroke midway between them
-    loses at most this fraction of their mean objective and violates no margin by more
-    (:func:`~train.amortised.branch_segments`) [-]."""
+    """Two neighbouring training optima share a branch when the stroke midway loses at most this
+    fraction of their mean objective and violates no margin by more (``branch_segments``) [-]."""
     features: int = field(default=0, metadata=_allowed(0, 1024))
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:func:`radial_features`)."""
@@ -248,8 +245,8 @@ def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> T
 # --- the network and the policy ------------------------------------------------------------------
 def radial_features(count: int) -> Any:
     """Fixed Gaussian bumps ``exp(−((x − μ_k)/σ)²/2)`` of the observation x ∈ [-1, 1] at
-    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module): a step for one
-    condition moves mostly the strokes near it."""
+    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module), so that a step
+    for one condition moves mostly the strokes near it."""
 
     class RadialFeatures(torch.nn.Module):
         def __init__(self) -> None:
@@ -481,15 +478,13 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
 
 
 def load_policy(run_dir: str | Path) -> AmortisedPolicy:
-    """The policy of an amortised run folder (or of the latest run it names), every file
-    checked before the network is built (the weights: a state_dict that
-    ``torch.load(weights_only=True)`` reads, with the network's names and shapes and finite
-    values); ValueError naming the file at fault."""
+    """The policy of an amortised run folder (or of the latest run it names), every file checked
+    before the network is built (the weights: a state_dict ``torch.load(weights_only=True)``
+    reads, of the network's names and shapes, finite); ValueError naming the file at fault."""
     layout, args_file, args = read_run_folder(
         run_dir, "a folder written by python -m train --algo amortised"
     )
-    folder = layout.run_dir
-    env_id = layout.env_id
+    folder, env_id = layout.run_dir, layout.env_id
     if args.get("algo") != AMORTISED:
         raise ValueError(
             f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "

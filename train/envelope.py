@@ -52,12 +52,9 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the sweep, :func:`sweep_conditions`);
-    write envelope.csv.
-
-    One job per condition, run and stored by the runner (:func:`agents.runner.run_jobs`, the
-    one writer of the records), here, one after another; a rerun replaces the records (the run
-    folder may hold a newer model under the same name)."""
+    """Record the run's policy at each condition (default the sweep, :func:`sweep_conditions`),
+    one job each, run and stored in turn by the runner (:func:`agents.runner.run_jobs`); a rerun
+    replaces the records (the run may hold a newer model of the same name). Writes envelope.csv."""
     from agents.harness import prepare
     from agents.runner import run_jobs
     from train.trained_policy import TrainingMismatchWarning, load_policy

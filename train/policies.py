@@ -1,8 +1,7 @@
-"""Stable-Baselines3 models as harness methods (docs/training.md, "Through the harness"):
-``policy:RUN_DIR``, a policy trained by ``python -m train`` asked once for its deterministic
-stroke, and ``ppo`` / ``sac``, trained at the harness's condition within its budget of env
-steps. Registered with the harness when imported (the provider :mod:`agents.methods` imports
-on first use, so ``agents`` imports SB3 only when asked).
+"""Stable-Baselines3 models as harness methods (docs/training.md, "Through the harness"),
+registered when imported (:mod:`agents.methods` imports it on first use): ``policy:RUN_DIR``, a
+trained policy asked once for its deterministic stroke, and ``ppo`` / ``sac``, trained at the
+harness's condition within its budget of env steps.
 """
 
 from __future__ import annotations
@@ -141,10 +140,8 @@ class TrainingMethod:
     conf_file: str | None = None
     torch_threads: int = 1
     log_dir: str | None = None
-    """If given, train through ``python -m train``'s code into ``log_dir/<algo>/<env>_<n>/``
-    (Monitor, TensorBoard, final model, result.json; no EvalCallback and no checkpoints, whose
-    evaluations the budget would not count), so the run can be plotted and reused as
-    ``policy:RUN_DIR``."""
+    """If given, train as ``python -m train`` into ``log_dir/<algo>/<env>_<n>/`` (no evaluations
+    or checkpoints, which the budget would not count), to plot and reuse as ``policy:RUN_DIR``."""
 
     def __post_init__(self) -> None:
         check_algo(self.algo)

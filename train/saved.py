@@ -1,9 +1,9 @@
 """A run folder's files read and written without running anything in them (docs/training.md,
-"What a run folder may hold"): a model is rebuilt from the run's ``config.yml``
-(:func:`build_model`) and given the zip's ``num_timesteps`` (its ``data`` parsed as JSON) and
-its weights (``torch.load(weights_only=True)``) by :func:`load_model`; SAC's replay buffer is
-an ``.npz`` of arrays; the YAML, the ``VecNormalize`` statistics and ``result.json`` have
-their own readers. SB3's ``load`` and ``load_replay_buffer`` unpickle, so they never read one.
+"What a run folder may hold"; SB3's ``load`` and ``load_replay_buffer`` unpickle, so never read
+one): :func:`load_model` rebuilds a model from ``config.yml`` and gives it the zip's
+``num_timesteps`` (``data`` parsed as JSON) and weights (``torch.load(weights_only=True)``);
+SAC's replay buffer is an ``.npz`` of arrays; the YAML, ``VecNormalize`` and ``result.json``
+have their own readers.
 """
 
 from __future__ import annotations
@@ -98,10 +98,9 @@ def read_normalizer(path: Path) -> Any:
 
 # --- the YAML of a run folder ---------------------------------------------------------------
 class RunFileLoader(BoundedLoader):
-    """YAML's safe loader, bounded in what a document may expand to (:class:`BoundedLoader`),
-    plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its ``OrderedDict`` of arguments
-    and hyperparameters, and of tuples such as ``train_freq``; :func:`_construct`). Every other
-    tag is refused (:class:`ForbiddenTag`) before anything is built."""
+    """YAML's safe loader, bounded (:class:`BoundedLoader`), plus the two Python tags rl_zoo3
+    writes (its ``OrderedDict`` of settings, tuples such as ``train_freq``; :func:`_construct`);
+    every other tag is refused (:class:`ForbiddenTag`) before anything is built."""
 
 
 class ForbiddenTag(yaml.constructor.ConstructorError):
@@ -117,10 +116,8 @@ _ORDERED_DICT = "tag:yaml.org,2002:python/object/apply:collections.OrderedDict"
 
 
 def _construct(loader: RunFileLoader, node: yaml.Node) -> Any:
-    """A ``!!python/tuple`` sequence as a tuple, a
-    ``!!python/object/apply:collections.OrderedDict`` as a dict (PyYAML writes an OrderedDict
-    as a one-item sequence: the list of [key, value] pairs); any other tag, or the tag in
-    another form than the zoo's, is refused (:class:`ForbiddenTag`)."""
+    """A ``!!python/tuple`` sequence as a tuple, an ``OrderedDict`` (PyYAML writes a one-item
+    sequence: the list of [key, value] pairs) as a dict; any other tag or form is refused."""
     if isinstance(node, yaml.SequenceNode) and node.tag in (_TUPLE, _ORDERED_DICT):
         items = loader.construct_sequence(node, deep=True)
         if node.tag == _TUPLE:
@@ -259,11 +256,10 @@ VARIABLES_MEMBER = "pytorch_variables.pth"
 
 
 def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``:
-    its ``data`` parsed as JSON (nothing decoded), each ``.pth`` read with
-    ``torch.load(weights_only=True)``; ValueError naming the file (and member) for a
-    serialized entry that names none of ``attributes`` (the rebuilt model's: only a tampered
-    file has one), a bad count, or weights that fail the load."""
+    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path`` (its
+    ``data`` parsed as JSON, each ``.pth`` read with ``torch.load(weights_only=True)``);
+    ValueError naming the file (and member) for a serialized entry that is none of the rebuilt
+    model's ``attributes`` (a tampered file), a bad count, or weights that fail the load."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
     try:

@@ -1,7 +1,5 @@
 """A policy trained by ``python -m train``, loaded from its run folder and asked for strokes:
-:class:`TrainedPolicy` (ppo, sac) and :func:`load_policy`, which loads either kind of run
-folder (an amortised run as a :class:`train.amortised_policy.AmortisedPolicy`, which answers
-the same questions, :class:`~train.run_folder.RunPolicy`).
+:class:`TrainedPolicy` (ppo, sac), and :func:`load_policy` of either kind of run folder.
 """
 
 from __future__ import annotations

@@ -1,10 +1,9 @@
 """``python -m train.tune``: tune PPO's or SAC's hyperparameters for a policy over an envelope.
 
-Optuna's TPE sampler (seeded) proposes overrides of the shipped zoo entry from
-:data:`SEARCH_SPACES`, the first trial being the shipped entry; each trial trains one policy by
-the same code as ``python -m train`` and its value is the median normalised score of its
-strokes at the reference grid's *training* conditions. The study's files, its checks and the
-shipped results: docs/training.md, "Tuning for the envelope". Needs the ``tune`` extra.
+Optuna's seeded TPE proposes overrides of the shipped zoo entry (the first trial) from
+:data:`SEARCH_SPACES`; a trial trains one policy as ``python -m train`` does, valued by the
+median normalised score of its strokes at the reference grid's *training* conditions
+(docs/training.md, "Tuning for the envelope"). Needs the ``tune`` extra.
 """
 
 from __future__ import annotations
