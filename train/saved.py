@@ -44,25 +44,20 @@ class Incomplete(ValueError):
 
 
 # --- the YAML, the normalisation statistics and result.json -----------------------------------
-#: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to, by module: the wrapper and
-#: its running statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
+#: The globals (``module:name``) a pickled ``VecNormalize`` (SB3's ``save``) refers to: the
+#: wrapper, its running statistics, spaces, numpy arrays and random generators; none runs code.
 _NORMALIZER_GLOBALS = frozenset(
-    (module, name)
-    for module, names in {
-        "stable_baselines3.common.vec_env.vec_normalize": ("VecNormalize",),
-        "stable_baselines3.common.running_mean_std": ("RunningMeanStd",),
-        "gymnasium.spaces.box": ("Box",),
-        "gymnasium.spaces.dict": ("Dict",),
-        "gymnasium.spaces.discrete": ("Discrete",),
-        "collections": ("OrderedDict",),
-        "numpy": ("dtype", "ndarray"),
-        "numpy.core.multiarray": ("_reconstruct", "scalar"),
-        "numpy._core.multiarray": ("_reconstruct", "scalar"),
-        "numpy.random._pickle": ("__generator_ctor", "__bit_generator_ctor"),
-        "numpy.random._pcg64": ("PCG64",),
-        "numpy.random.bit_generator": ("SeedSequence", "__pyx_unpickle_SeedSequence"),
-    }.items()
-    for name in names
+    tuple(entry.split(":"))
+    for entry in (
+        "stable_baselines3.common.vec_env.vec_normalize:VecNormalize collections:OrderedDict "
+        "stable_baselines3.common.running_mean_std:RunningMeanStd gymnasium.spaces.box:Box "
+        "gymnasium.spaces.dict:Dict gymnasium.spaces.discrete:Discrete numpy:dtype numpy:ndarray "
+        "numpy.core.multiarray:_reconstruct numpy.core.multiarray:scalar "
+        "numpy._core.multiarray:_reconstruct numpy._core.multiarray:scalar "
+        "numpy.random._pickle:__generator_ctor numpy.random._pickle:__bit_generator_ctor "
+        "numpy.random._pcg64:PCG64 numpy.random.bit_generator:SeedSequence "
+        "numpy.random.bit_generator:__pyx_unpickle_SeedSequence"
+    ).split()
 )
 
 
