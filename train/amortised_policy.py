@@ -63,48 +63,42 @@ CITATION = (
 
 
 # --- how it is trained (``--hyperparams``, ``config.yml``) and the limits of its network ----
-def _allowed(low: float, high: float, *, above: bool = False) -> dict[str, Any]:
-    """A setting's allowed values, checked by :class:`Settings`: ``low`` (excluded if
-    ``above``) to ``high``; an ``int | None`` setting may also be None."""
-    return {"range": (low, high), "above": above}
-
-
 @dataclass(frozen=True)
 class Settings:
     """How an amortised policy is trained (``--hyperparams key=value``; ``config.yml``)."""
 
     hidden: tuple[int, ...] = (64, 64)
     """Widths of the MLP's hidden layers (tanh) [-]."""
-    regression_steps: int = field(default=5000, metadata=_allowed(0, 10**6))
+    regression_steps: int = field(default=5000, metadata={"range": (0, 10**6)})
     """Adam steps of the regression on the training optima (full batch) [-]."""
-    regression_lr: float = field(default=3e-3, metadata=_allowed(0.0, 1.0, above=True))
+    regression_lr: float = field(default=3e-3, metadata={"range": (0.0, 1.0), "above": True})
     """Adam's learning rate in the regression [-]."""
-    finetune_steps: int = field(default=600, metadata=_allowed(0, 10**6))
+    finetune_steps: int = field(default=600, metadata={"range": (0, 10**6)})
     """Adam steps of the fine-tuning by the objective's gradient (0: none) [-]."""
-    finetune_lr: float = field(default=1e-3, metadata=_allowed(0.0, 1.0, above=True))
+    finetune_lr: float = field(default=1e-3, metadata={"range": (0.0, 1.0), "above": True})
     """Adam's learning rate in the fine-tuning [-]."""
-    batch: int = field(default=16, metadata=_allowed(1, 4096))
+    batch: int = field(default=16, metadata={"range": (1, 4096)})
     """Conditions per branch and fine-tuning step (all in one batched model evaluation) [-]."""
-    penalty_weight: float = field(default=10.0, metadata=_allowed(0.0, 1e6, above=True))
+    penalty_weight: float = field(default=10.0, metadata={"range": (0.0, 1e6), "above": True})
     """w of the fine-tuning's penalty [objective units per unit of margin] (the env's default
     ``penalty_weight``)."""
-    safety_margin: float = field(default=1e-3, metadata=_allowed(0.0, 0.1))
+    safety_margin: float = field(default=1e-3, metadata={"range": (0.0, 0.1)})
     """δ: the fine-tuning penalises every constraint margin below it [-] (margins are
     fractions: the level flight's tolerance is 0.02)."""
-    anchor: float = field(default=30.0, metadata=_allowed(0.0, 1e6))
+    anchor: float = field(default=30.0, metadata={"range": (0.0, 1e6)})
     """Weight of the regression loss on the training targets during the fine-tuning [-]."""
-    branch_reach: float = field(default=0.6, metadata=_allowed(0.5, 1.0, above=True))
+    branch_reach: float = field(default=0.6, metadata={"range": (0.5, 1.0), "above": True})
     """How far each branch's domain reaches into the gap to a neighbouring branch's training
     condition [fraction of the gap] (above 0.5: both cover its middle, where they hand over)."""
-    branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
+    branch_tolerance: float = field(default=0.1, metadata={"range": (0.0, 1.0)})
     """Two neighbouring training optima share a branch when the stroke midway loses at most this
     fraction of their mean objective and violates no margin by more (``branch_segments``) [-]."""
-    features: int = field(default=0, metadata=_allowed(0, 1024))
+    features: int = field(default=0, metadata={"range": (0, 1024)})
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:func:`radial_features`)."""
-    finetune_n_time: int | None = field(default=None, metadata=_allowed(8, 4096))
+    finetune_n_time: int | None = field(default=None, metadata={"range": (8, 4096)})
     """Time samples of the fine-tuning's model (None: the env's, default 128) [-]."""
-    finetune_n_blade: int | None = field(default=None, metadata=_allowed(2, 512))
+    finetune_n_blade: int | None = field(default=None, metadata={"range": (2, 512)})
     """Blade elements of the fine-tuning's model (None: the env's, default 24) [-]."""
 
     def __post_init__(self) -> None:
@@ -120,11 +114,13 @@ class Settings:
                 "1 to 4096, e.g. [64, 64]"
             )
         object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
-        for spec in fields(self)[1:]:  # the numbers, each in its range (_allowed)
+        # the numbers, each in its metadata's range: low (excluded if "above") to high; an
+        # int | None setting may also be None
+        for spec in fields(self)[1:]:
             name, value, (low, high) = spec.name, getattr(self, spec.name), spec.metadata["range"]
             if value is None and spec.type == "int | None":
                 continue
-            real, above = spec.type == "float", spec.metadata["above"]
+            real, above = spec.type == "float", spec.metadata.get("above", False)
             if (
                 not (is_real(value) if real else is_integer(value))
                 or not (low < value if above else low <= value)

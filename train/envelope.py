@@ -36,14 +36,6 @@ COLUMNS: tuple[str, ...] = tuple(
 RECORD_COLUMNS = COLUMNS[3:8]
 
 
-def sweep_conditions(task: str) -> tuple[float, ...]:
-    """The task's declared sweep (its env config's ``CONDITION.sweep``)."""
-    declared = get_task(task).declaration.condition
-    if declared is None:
-        raise ValueError(f"task {task!r} declares no sweep; give the conditions")
-    return declared.sweep
-
-
 def evaluate_envelope(
     run_dir: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
@@ -52,7 +44,7 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the sweep, :func:`sweep_conditions`),
+    """Record the run's policy at each condition (default the task's declared sweep),
     one job each, run and stored in turn by the runner (:func:`agents.runner.run_jobs`); a rerun
     replaces the records (the run may hold a newer model of the same name). Writes envelope.csv."""
     from agents.harness import prepare
@@ -63,7 +55,12 @@ def evaluate_envelope(
     task = task_of(policy.env_id)
     # The harness sets the condition itself; every other training option is kept.
     env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
-    values = tuple(conditions) if conditions is not None else sweep_conditions(task)
+    if conditions is None:
+        declared = get_task(task).declaration.condition  # its env config's CONDITION
+        if declared is None:
+            raise ValueError(f"task {task!r} declares no sweep; give the conditions")
+        conditions = declared.sweep
+    values = tuple(conditions)
     out = Path(out_dir)
     with warnings.catch_warnings():
         # Said once, for every condition, by the trained_at column (and main's note).
