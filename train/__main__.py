@@ -26,8 +26,8 @@ with exit_on_bad_environment("python -m train"):
     from tandem_env.io.command import command_line
 from tandem_env.envs.registration import config_class
 from tandem_env.io.progress_bar import warnings_as_lines
-from train.cli import build_parser as build_fields_parser
 from train.config import AMORTISED, TrainConfig
+from train.entry import build_parser as build_fields_parser
 from train.run_folder import Interrupted, RunComplete
 
 EPILOG = """\
@@ -45,7 +45,7 @@ one and the run says so.
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The command line: one option per :class:`TrainConfig` field (:mod:`train.cli`; ``--resume``
+    """The command line: one option per :class:`TrainConfig` field (:mod:`train.entry`; ``--resume``
     and ``--run-dir`` exclude each other), plus ``--insect``."""
     parser = build_fields_parser(
         TrainConfig,

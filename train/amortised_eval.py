@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from train.entry import exit_on_bad_environment
+from train.entry import command, exit_on_bad_environment, option
 
 with exit_on_bad_environment("python -m train.amortised_eval"):
     from tandem_env.io.command import command_line
@@ -29,7 +29,6 @@ from agents.tasks import get_task, task_of
 from tandem_env.envs.reference import held_out_conditions, normalised_score
 from tandem_env.io.files import output_directory, write_json_atomic
 from tandem_env.physics.checks import is_integer
-from train.cli import command, option
 
 #: The most evaluations the warm-started polish may spend per condition [-].
 MAX_POLISH = 500

@@ -25,7 +25,7 @@ from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
 from tandem_env.physics.checks import count, flag, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
-from train.cli import option
+from train.entry import option
 
 #: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
 ALGOS = ("ppo", "sac")

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from tandem_env.io.files import atomic_path, read_json
-from train.cli import command, option
+from train.entry import command, option
 from train.run_folder import read_run_folder
 
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from train.entry import exit_on_bad_environment
+from train.entry import command, exit_on_bad_environment, option
 
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.envelope"):
@@ -24,7 +24,6 @@ with exit_on_bad_environment("python -m train.envelope"):
 from agents.tasks import available_tasks, get_task, task_of
 from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic
-from train.cli import command, option
 
 #: Columns of envelope.csv.
 COLUMNS: tuple[str, ...] = tuple(

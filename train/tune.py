@@ -27,7 +27,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-from train.entry import exit_on_bad_environment
+from train.entry import command, exit_on_bad_environment, option
 
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.tune"):
@@ -36,7 +36,6 @@ from tandem_env.envs.reference import score_strokes, training_conditions
 from tandem_env.envs.registration import check_env_id, condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
 from tandem_env.physics.checks import is_integer, is_real
-from train.cli import command, option
 from train.config import TrainConfig, check_seed, load_entry
 
 #: Per algorithm and parameter: what Optuna proposes (kind, choices or (low, high): "log" and
