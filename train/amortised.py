@@ -156,17 +156,12 @@ def branch_domains(
 ) -> np.ndarray:
     """(n_branches, 2) the conditions each branch learns over [the condition's unit]
     (docs/training.md, step 2; ``reach``: ``branch_reach``)."""
-    last = conditions.size - 1
-    return np.array(
-        [
-            (
-                conditions[a] - reach * (conditions[a] - conditions[max(a - 1, 0)]),
-                conditions[b - 1] + reach * (conditions[min(b, last)] - conditions[b - 1]),
-            )
-            for a, b in segments
-        ],
-        dtype=np.float64,
-    ).reshape(-1, 2)
+    c = np.asarray(conditions, dtype=np.float64)
+    first = np.array([a for a, _ in segments], dtype=np.intp)
+    last = np.array([b - 1 for _, b in segments], dtype=np.intp)
+    low = c[first] - reach * (c[first] - c[np.maximum(first - 1, 0)])
+    high = c[last] + reach * (c[np.minimum(last + 1, c.size - 1)] - c[last])
+    return np.stack([low, high], axis=1)
 
 
 def regression_points(
@@ -396,6 +391,7 @@ def train_run(config: TrainConfig) -> RunResult:
         # the final policy at the training conditions, at the env's resolution
         conditions = np.asarray(training_conditions(env_id))
         found = problem.evaluate(policy.strokes(conditions), conditions)
+        columns = (conditions, found.objective, found.feasible, targets.objectives)
         table = load_reference_table()
         summary = {
             "algo": AMORTISED,
@@ -409,15 +405,8 @@ def train_run(config: TrainConfig) -> RunResult:
             },
             "reference_provenance": to_jsonable(dict(table.provenance)),
             "training_evaluation": [
-                {
-                    "condition": float(c),
-                    "objective": float(o),
-                    "feasible": bool(f),
-                    "reference": float(r),
-                }
-                for c, o, f, r in zip(
-                    conditions, found.objective, found.feasible, targets.objectives, strict=True
-                )
+                dict(zip(("condition", "objective", "feasible", "reference"), row, strict=True))
+                for row in zip(*(np.asarray(c).tolist() for c in columns), strict=True)
             ],
             "versions": package_versions(),
         }

@@ -96,17 +96,11 @@ def evaluate_held_out(
         timeit.repeat(lambda batch=batch: policy.strokes(batch), number=1, repeat=repeats)
         for batch in (values[:1], values)
     )
+    keys = ("condition", "reference", "objective", "feasible", "violation", "score", "gap")
+    columns = (values, reference, found.objective, found.feasible, violation, score, 100.0 - score)
     rows = [
-        {
-            "condition": float(value),
-            "reference": float(reference[k]),
-            "objective": float(found.objective[k]),
-            "feasible": bool(found.feasible[k]),
-            "violation": float(violation[k]),
-            "score": float(score[k]),
-            "gap": float(100.0 - score[k]),
-        }
-        for k, value in enumerate(values)
+        dict(zip(keys, row, strict=True))
+        for row in zip(*(np.asarray(c).tolist() for c in columns), strict=True)
     ]
     if records is not None:
         from agents.store import read_record_files
