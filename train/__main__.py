@@ -92,16 +92,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         with warnings_as_lines():  # every input was checked before any training
             result = (train_run if config.algo == AMORTISED else train)(config)
-    except Interrupted as stop:  # Ctrl-C in training: a checkpoint was saved
-        print(f"{parser.prog}: {stop}", file=sys.stderr)
-        return 130
     except RunComplete as done:
         print(done)
         return 0
-    except KeyboardInterrupt:  # outside the training steps (those stop with Interrupted)
-        print(
-            f"{parser.prog}: interrupted; a run continues from its last checkpoint", file=sys.stderr
-        )
+    except (Interrupted, KeyboardInterrupt) as stop:
+        # Ctrl-C: in training (Interrupted: a checkpoint was saved) or outside its steps
+        said = "interrupted; a run continues from its last checkpoint"
+        print(f"{parser.prog}: {stop if isinstance(stop, Interrupted) else said}", file=sys.stderr)
         return 130
     except ValueError as error:
         parser.error(str(error))

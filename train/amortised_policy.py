@@ -315,10 +315,9 @@ class AmortisedPolicy(RunPolicy):
 
     def pre_activations(self, conditions: np.ndarray, branches: np.ndarray) -> Any:
         """(n, 26) z of each condition's branch (u = tanh z), differentiable."""
-        values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = np.asarray(branches).reshape(-1)
-        obs = torch.as_tensor(self.inputs(values, chosen), dtype=torch.float64)
-        z = torch.zeros((values.size, len(CONTINUOUS)), dtype=torch.float64)
+        obs = torch.as_tensor(self.inputs(conditions, chosen), dtype=torch.float64)
+        z = torch.zeros((obs.shape[0], len(CONTINUOUS)), dtype=torch.float64)
         for b in np.unique(chosen):
             rows = torch.as_tensor(np.flatnonzero(chosen == b))
             z = z.index_put((rows,), self.network[int(b)](obs[rows]))

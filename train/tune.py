@@ -194,11 +194,6 @@ def best_entry_text(config: TuneConfig, study: Any) -> str:
     return "\n".join(head) + "\n" + body
 
 
-#: The Optuna errors replaying a damaged journal raises (it asserts on unknown operations and
-#: looks up studies and trials by id).
-_REPLAY_ERRORS = (AssertionError, KeyError, IndexError, TypeError, ValueError, AttributeError)
-
-
 def _check_journal_lines(path: Path) -> None:
     """ValueError naming the journal unless every line is a JSON object with an integer
     ``op_code`` ending in a newline (Optuna would append to a line a kill cut short)."""
@@ -269,7 +264,9 @@ def open_study(config: TuneConfig) -> Any:
         )
         names = set(optuna.get_all_study_names(storage))
         trials = optuna.load_study(study_name=name, storage=storage).trials if name in names else []
-    except _REPLAY_ERRORS as error:
+    # what replaying a damaged journal raises (Optuna asserts on unknown operations, looks up
+    # studies and trials by id)
+    except (AssertionError, KeyError, IndexError, TypeError, ValueError, AttributeError) as error:
         raise ValueError(
             f"{journal}: its operations do not replay ({type(error).__name__}: damaged or "
             "edited); it is left untouched. Allowed: the journal python -m train.tune wrote, "
