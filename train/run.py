@@ -365,20 +365,10 @@ def learn_in_memory(
     env_kwargs = {**hp.env_kwargs, **env_kwargs}
     with torch_threads(threads):
         venv, recorder = make_training_env(
-            env_id,
-            hp.n_envs,
-            seed,
-            env_kwargs,
-            monitor_file=None,
-            normalize=hp.normalize,
-            on_step=on_step,
+            env_id, hp.n_envs, seed, env_kwargs, normalize=hp.normalize, on_step=on_step
         )
         model = build_model(hp.algo, hp, venv, seed=seed)
-        model.learn(
-            hp.n_timesteps,
-            log_interval=default_log_interval(hp),
-            progress_bar=False,
-        )
+        model.learn(hp.n_timesteps, log_interval=default_log_interval(hp), progress_bar=False)
     if recorder.evaluations > hp.n_timesteps:  # whole iterations: cannot happen; never record it
         raise RuntimeError(f"{hp.algo} used {recorder.evaluations} env steps > {hp.n_timesteps}")
     return model, recorder

@@ -477,7 +477,7 @@ def load_on_copy(
 ) -> BaseAlgorithm:
     """A model file (:func:`load_model`) loaded on a throwaway copy of the run's env."""
     # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
-    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
+    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs)  # no Monitor, no normalisation
     try:
         return load_model(algo, path, hp, venv, seed=0, **checkpoint)
     except BaseException:

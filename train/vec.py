@@ -103,11 +103,11 @@ def make_training_env(
     seed: int,
     env_kwargs: Mapping[str, Any],
     *,
-    monitor_file: Path | None,
-    normalize: Mapping[str, Any] | None,
+    monitor_file: Path | None = None,
+    normalize: Mapping[str, Any] | None = None,
     on_step: Callable[[StrokeRecorder], None] | None = None,
 ) -> tuple[VecEnv, StrokeRecorder]:
-    """The training stack (see the module docstring) and its recorder."""
+    """The training stack (module docstring; None: no Monitor file or VecNormalize), its recorder."""
     recorder = StrokeRecorder(
         make_sb3_vec_env(env_id, n_envs=n_envs, seed=seed, **env_kwargs), on_step
     )
