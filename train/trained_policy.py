@@ -44,8 +44,6 @@ class TrainedPolicy(RunPolicy):
     run_dir: Path
     algo: str
     env_id: str
-    entry: Mapping[str, Any]
-    """The run's hyperparameters (``config.yml``)."""
     env_kwargs: Mapping[str, Any]
     """The env options it was trained with (``args.yml`` and the yml entry's ``env_kwargs``)."""
     model_path: Path
@@ -91,8 +89,7 @@ class TrainedPolicy(RunPolicy):
         model = load_on_copy(algo, path, hp, env_id, env_kwargs)
         if normalizer is not None:
             read_normalizer(normalizer)
-        kwargs = MappingProxyType(env_kwargs)
-        return cls(run_dir, algo, env_id, entry, kwargs, path, normalizer, model)
+        return cls(run_dir, algo, env_id, MappingProxyType(env_kwargs), path, normalizer, model)
 
     def strokes(self, conditions: Sequence[float]) -> np.ndarray:
         """The deterministic normalised strokes (n, 28) in [-1, 1] at ``conditions``."""
