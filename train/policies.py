@@ -35,10 +35,9 @@ from train.config import (
     plain,
     step_granularity,
 )
-from train.run import TrainResult, budget_hyperparams, learn_in_memory, train
+from train.run import StrokeRecorder, TrainResult, budget_hyperparams, learn_in_memory, train
 from train.run_folder import resolve_run_dir
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
-from train.vec import StrokeRecorder
 
 _SB3 = "Stable-Baselines3 implementation (Raffin et al. 2021, JMLR 22(268))"
 CITATIONS: dict[str, str] = {

@@ -27,11 +27,11 @@ from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.logger import HumanOutputFormat, Logger
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
+from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import atomic_path, read_json
 from tandem_env.physics.checks import is_integer, is_real
 from train.config import MAX_TIMESTEPS, Hyperparams
-from train.vec import make_training_env
 
 
 class Incomplete(ValueError):
@@ -477,7 +477,7 @@ def load_on_copy(
 ) -> BaseAlgorithm:
     """A model file (:func:`load_model`) loaded on a throwaway copy of the run's env."""
     # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
-    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs)  # no Monitor, no normalisation
+    venv = make_sb3_vec_env(env_id, n_envs=hp.n_envs, seed=0, **env_kwargs)
     try:
         return load_model(algo, path, hp, venv, seed=0, **checkpoint)
     except BaseException:

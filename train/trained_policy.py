@@ -18,9 +18,9 @@ from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.amortised_policy import load_policy as load_amortised
 from train.config import AMORTISED, check_algo, resolve_hyperparams
+from train.run import ConditionGrid
 from train.run_folder import RunPolicy, read_run_folder
 from train.saved import load_on_copy, read_normalizer, read_run_yaml
-from train.vec import ConditionGrid
 
 WhichModel = Literal["best", "final"]
 WHICH_MODELS: tuple[str, ...] = get_args(WhichModel)

@@ -16,10 +16,9 @@ import yaml
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from train.__main__ import build_parser, main, parse_config
 from train.config import TrainConfig
-from train.run import train
+from train.run import MONITOR_KEYWORDS, train
 from train.run_folder import RunLayout
 from train.saved import read_normalizer
-from train.vec import MONITOR_KEYWORDS
 
 REPO = Path(__file__).resolve().parents[2]
 
