@@ -104,6 +104,7 @@ class StrokeRecorder(VecEnvWrapper):
         self.evaluations = 0
         self.steps = 0
         self.best_reward = -np.inf
+        self.best_feasible = False
         self.best_action: np.ndarray | None = None
         self.best_info: dict[str, Any] | None = None
         self.max_reward = -np.inf
@@ -131,6 +132,7 @@ class StrokeRecorder(VecEnvWrapper):
         i = None if self._actions is None else self._best.offer(feasible, exact)
         if i is not None:
             self.best_reward = self._best.reward
+            self.best_feasible = self._best.feasible
             self.best_action = self._actions[i].copy()
             self.best_info = {k: v for k, v in infos[i].items() if k != "terminal_observation"}
         clean = np.where(np.isnan(exact), -np.inf, exact)
