@@ -410,7 +410,7 @@ def train_run(config: TrainConfig) -> RunResult:
             ],
             "versions": package_versions(),
         }
-        run.start(settings.to_dict())
+        run.start(to_jsonable(asdict(settings)))  # config.yml
         write_json_atomic(run.layout.policy_file, policy.policy_data())
         with atomic_path(run.layout.weights) as tmp:
             torch.save(policy.network.state_dict(), tmp)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import pickle
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -140,9 +140,6 @@ class Settings:
         if unknown:
             raise ValueError(f"unknown amortised setting(s) {unknown}; allowed: {', '.join(names)}")
         return cls(**dict(values))
-
-    def to_dict(self) -> dict[str, Any]:
-        return to_jsonable(asdict(self))
 
 
 # --- canonical strokes -------------------------------------------------------------------------

@@ -327,7 +327,7 @@ def policy_factory(argument: str | None, config: Mapping[str, Any]) -> Method:
 
 
 def training_factory(algo: str, argument: str | None, config: Mapping[str, Any]) -> Method:
-    """``ppo`` or ``sac`` (``algo``, bound by :func:`register`): settings are hyperparameter
+    """``ppo`` or ``sac`` (``algo``, bound when registered): settings are hyperparameter
     overrides, plus ``n_envs``, ``conf_file`` (a zoo-format yml) and ``torch_threads``."""
     if argument is not None:
         raise ValueError(f"method {algo!r} takes no ':' argument; got {algo}:{argument}")
@@ -336,12 +336,8 @@ def training_factory(algo: str, argument: str | None, config: Mapping[str, Any])
     return TrainingMethod(algo, overrides=settings, **extra)
 
 
-def register() -> None:
-    """Register ``ppo``, ``sac`` and ``policy`` with the harness (idempotent)."""
-    for algo in ALGOS:
-        register_method(algo, functools.partial(training_factory, algo), replace=True)
-    register_method("policy", policy_factory, replace=True)
-
-
-# Importing this module registers the methods: their tandem_env.optimisers entry points name it.
-register()
+# Importing this module registers ppo, sac and policy with the harness (idempotently): their
+# tandem_env.optimisers entry points name it.
+for _algo in ALGOS:
+    register_method(_algo, functools.partial(training_factory, _algo), replace=True)
+register_method("policy", policy_factory, replace=True)
