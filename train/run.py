@@ -184,11 +184,7 @@ def make_training_env(
 
 
 def make_evaluation_env(
-    env_id: str,
-    env_kwargs: Mapping[str, Any],
-    seed: int,
-    *,
-    normalize: Mapping[str, Any] | None,
+    env_id: str, env_kwargs: Mapping[str, Any], seed: int, *, normalize: Mapping[str, Any] | None
 ) -> VecEnv:
     """The evaluation stack at the fixed condition, or the declared sweep's points in the
     sampled range (its ends and midpoint where it holds fewer than two)."""
