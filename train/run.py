@@ -37,14 +37,8 @@ from stable_baselines3.common.callbacks import (
     ConvertCallback,
     EvalCallback,
 )
-from stable_baselines3.common.vec_env import (
-    VecEnv,
-    VecEnvWrapper,
-    VecMonitor,
-    VecNormalize,
-    sync_envs_normalization,
-)
-from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
+from stable_baselines3.common.vec_env import VecMonitor, VecNormalize, sync_envs_normalization
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvStepReturn, VecEnvWrapper
 
 from agents.selection import BestStroke, best_index
 from tandem_env.envs.registration import config_class
