@@ -1,7 +1,5 @@
 """Training of Stable-Baselines3 agents (PPO, SAC) on the tandem-wing envs (docs/training.md):
-``python -m train --algo sac --env TandemWing/LevelFlight-v0`` with the zoo-format
-hyperparameters in ``train/hyperparams/`` (``envelope/`` holds those tuned for a policy over the
-whole envelope by ``python -m train.tune``); :func:`train.run.train` is the same from Python.
-Stable-Baselines3 and torch are imported only by the submodules that need them; the package
-itself imports nothing.
+``python -m train --algo sac --env TandemWing/LevelFlight-v0`` (:func:`train.run.train` from
+Python) with the zoo-format hyperparameters of ``train/hyperparams/`` (``envelope/``: tuned by
+``python -m train.tune`` for the whole envelope). The package itself imports nothing.
 """

@@ -26,8 +26,8 @@ with exit_on_bad_environment("python -m train"):
     from tandem_env.io.command import command_line
 from tandem_env.envs.registration import config_class
 from tandem_env.io.progress_bar import warnings_as_lines
-from train.cli import build_parser as build_fields_parser
 from train.config import AMORTISED, TrainConfig
+from train.entry import build_parser as build_fields_parser
 from train.run_folder import Interrupted, RunComplete
 
 EPILOG = """\
@@ -45,7 +45,7 @@ one and the run says so.
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The command line: one option per :class:`TrainConfig` field (:mod:`train.cli`; ``--resume``
+    """The command line: one option per :class:`TrainConfig` field (:mod:`train.entry`; ``--resume``
     and ``--run-dir`` exclude each other), plus ``--insect``."""
     parser = build_fields_parser(
         TrainConfig,
@@ -92,16 +92,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         with warnings_as_lines():  # every input was checked before any training
             result = (train_run if config.algo == AMORTISED else train)(config)
-    except Interrupted as stop:  # Ctrl-C in training: a checkpoint was saved
-        print(f"{parser.prog}: {stop}", file=sys.stderr)
-        return 130
     except RunComplete as done:
         print(done)
         return 0
-    except KeyboardInterrupt:  # outside the training steps (those stop with Interrupted)
-        print(
-            f"{parser.prog}: interrupted; a run continues from its last checkpoint", file=sys.stderr
-        )
+    except (Interrupted, KeyboardInterrupt) as stop:
+        # Ctrl-C: in training (Interrupted: a checkpoint was saved) or outside its steps
+        said = "interrupted; a run continues from its last checkpoint"
+        print(f"{parser.prog}: {stop if isinstance(stop, Interrupted) else said}", file=sys.stderr)
         return 130
     except ValueError as error:
         parser.error(str(error))

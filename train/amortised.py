@@ -1,9 +1,8 @@
-"""An amortised stroke policy trained: one network per branch from the flight condition to a
-stroke (amortised optimisation; Amos 2023, "Tutorial on amortized optimization", Found. Trends
-Mach. Learn. 16(5)). ``python -m train --algo amortised --env ID`` runs :func:`train_run`; the
-policy itself is :mod:`train.amortised_policy`. The method ((a) branches, (b) regression,
-(c) fine-tuning, (d) hand-overs), its settings, its refusals and its measured results are
-specified in docs/training.md, "Amortised policy".
+"""An amortised stroke policy (:mod:`train.amortised_policy`) trained: one network per branch from
+the flight condition to a stroke (Amos 2023, "Tutorial on amortized optimization", Found. Trends
+Mach. Learn. 16(5)); ``python -m train --algo amortised --env ID`` runs :func:`train_run`. The
+method ((a) branches, (b) regression, (c) fine-tuning, (d) hand-overs), its settings, refusals
+and results: docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
@@ -157,27 +156,21 @@ def branch_domains(
 ) -> np.ndarray:
     """(n_branches, 2) the conditions each branch learns over [the condition's unit]
     (docs/training.md, step 2; ``reach``: ``branch_reach``)."""
-    last = conditions.size - 1
-    return np.array(
-        [
-            (
-                conditions[a] - reach * (conditions[a] - conditions[max(a - 1, 0)]),
-                conditions[b - 1] + reach * (conditions[min(b, last)] - conditions[b - 1]),
-            )
-            for a, b in segments
-        ],
-        dtype=np.float64,
-    ).reshape(-1, 2)
+    c = np.asarray(conditions, dtype=np.float64)
+    first = np.array([a for a, _ in segments], dtype=np.intp)
+    last = np.array([b - 1 for _, b in segments], dtype=np.intp)
+    low = c[first] - reach * (c[first] - c[np.maximum(first - 1, 0)])
+    high = c[last] + reach * (c[np.minimum(last + 1, c.size - 1)] - c[last])
+    return np.stack([low, high], axis=1)
 
 
 def regression_points(
     targets: Targets, segments: list[tuple[int, int]], domains: np.ndarray, centres: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What each branch's regression fits (conditions (n,), branches (n,), atanh of the tanh
-    outputs (n, 26)): its optima; the :data:`INTERPOLATED` strokes between each two
-    neighbouring ones (within a basin they fly nearly as well); and its end optima at its
-    domain's ends (a constant continuation, so a branch of one training condition starts flat
-    over its domain)."""
+    outputs (n, 26)): its optima, the :data:`INTERPOLATED` strokes between each two neighbours
+    (within a basin they fly nearly as well), and its end optima at its domain's ends (a branch
+    of one training condition starts flat over its domain)."""
     conditions = targets.conditions
     goal = np.arctanh(regression_outputs(targets.strokes, centres))
     owner = [np.full(b - a, i) for i, (a, b) in enumerate(segments)]
@@ -199,10 +192,9 @@ def regression_points(
 
 
 def hand_overs(policy: AmortisedPolicy, problem: Any, penalty_weight: float) -> np.ndarray:
-    """Where each branch hands over to the next: where their domains overlap (inside the gap
-    between their training conditions), at the cut that maximises the summed penalised
-    objective (objective − w·Σ max(0, −margin), the env's reward) of the two branches'
-    strokes on :data:`SWITCH_SAMPLES` conditions there."""
+    """Where each branch hands over to the next: in the overlap of their domains, the cut that
+    maximises the two branches' summed penalised objective (objective − w·Σ max(0, −margin),
+    the env's reward) over :data:`SWITCH_SAMPLES` conditions there."""
     switches = []
     for branch in range(policy.n_branches - 1):
         grid = np.linspace(policy.domains[branch + 1, 0], policy.domains[branch, 1], SWITCH_SAMPLES)
@@ -399,6 +391,7 @@ def train_run(config: TrainConfig) -> RunResult:
         # the final policy at the training conditions, at the env's resolution
         conditions = np.asarray(training_conditions(env_id))
         found = problem.evaluate(policy.strokes(conditions), conditions)
+        columns = (conditions, found.objective, found.feasible, targets.objectives)
         table = load_reference_table()
         summary = {
             "algo": AMORTISED,
@@ -412,19 +405,12 @@ def train_run(config: TrainConfig) -> RunResult:
             },
             "reference_provenance": to_jsonable(dict(table.provenance)),
             "training_evaluation": [
-                {
-                    "condition": float(c),
-                    "objective": float(o),
-                    "feasible": bool(f),
-                    "reference": float(r),
-                }
-                for c, o, f, r in zip(
-                    conditions, found.objective, found.feasible, targets.objectives, strict=True
-                )
+                dict(zip(("condition", "objective", "feasible", "reference"), row, strict=True))
+                for row in zip(*(np.asarray(c).tolist() for c in columns), strict=True)
             ],
             "versions": package_versions(),
         }
-        run.start(settings.to_dict())
+        run.start(to_jsonable(asdict(settings)))  # config.yml
         write_json_atomic(run.layout.policy_file, policy.policy_data())
         with atomic_path(run.layout.weights) as tmp:
             torch.save(policy.network.state_dict(), tmp)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from train.entry import exit_on_bad_environment
+from train.entry import command, exit_on_bad_environment, option
 
 with exit_on_bad_environment("python -m train.amortised_eval"):
     from tandem_env.io.command import command_line
@@ -29,7 +29,6 @@ from agents.tasks import get_task, task_of
 from tandem_env.envs.reference import held_out_conditions, normalised_score
 from tandem_env.io.files import output_directory, write_json_atomic
 from tandem_env.physics.checks import is_integer
-from train.cli import command, option
 
 #: The most evaluations the warm-started polish may spend per condition [-].
 MAX_POLISH = 500
@@ -38,10 +37,8 @@ MAX_POLISH = 500
 def record_times(
     records: Sequence[Record], env_id: str, metric: str, planform: str, condition: float
 ) -> tuple[float, float, int] | None:
-    """(wall time of the best record by the selection rule [s], sum over the records [s],
-    records) of the harness ``records`` at ``condition`` (the table's: its seeds and its
-    continuation rounds, read by the store, :func:`agents.store.read_record_files`); None where
-    there are none."""
+    """(wall time of the best record by the selection rule [s], sum over the records [s], count)
+    of the harness ``records`` (the table's seeds and rounds) at ``condition``; None if none."""
     found = [
         record
         for record in records
@@ -99,17 +96,11 @@ def evaluate_held_out(
         timeit.repeat(lambda batch=batch: policy.strokes(batch), number=1, repeat=repeats)
         for batch in (values[:1], values)
     )
+    keys = ("condition", "reference", "objective", "feasible", "violation", "score", "gap")
+    columns = (values, reference, found.objective, found.feasible, violation, score, 100.0 - score)
     rows = [
-        {
-            "condition": float(value),
-            "reference": float(reference[k]),
-            "objective": float(found.objective[k]),
-            "feasible": bool(found.feasible[k]),
-            "violation": float(violation[k]),
-            "score": float(score[k]),
-            "gap": float(100.0 - score[k]),
-        }
-        for k, value in enumerate(values)
+        dict(zip(keys, row, strict=True))
+        for row in zip(*(np.asarray(c).tolist() for c in columns), strict=True)
     ]
     if records is not None:
         from agents.store import read_record_files

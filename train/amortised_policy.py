@@ -1,9 +1,8 @@
-"""The amortised stroke policy (trained by :mod:`train.amortised`): its map from the condition
-c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its training settings
-(:class:`Settings`, the one home of their limits), its canonical targets (:func:`canonicalise`)
-and its run folder (``<env>.pt``, the weights, read with ``torch.load(weights_only=True)``, and
-``policy.json`` beside :class:`~train.run_folder.RunLayout`'s files). What the map is and why,
-the canonical targets and the folder's files: docs/training.md, "Amortised policy".
+"""The amortised stroke policy (trained by :mod:`train.amortised`; docs/training.md, "Amortised
+policy"): its map from the condition c [the condition's unit] to a normalised stroke (28,) in
+[-1, 1], its training settings (:class:`Settings`, the one home of their limits), canonical
+targets (:func:`canonicalise`) and run folder files (``<env>.pt``, the weights, read with
+``torch.load(weights_only=True)``, and ``policy.json``).
 """
 
 from __future__ import annotations
@@ -11,7 +10,7 @@ from __future__ import annotations
 import math
 import pickle
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -64,50 +63,42 @@ CITATION = (
 
 
 # --- how it is trained (``--hyperparams``, ``config.yml``) and the limits of its network ----
-def _allowed(low: float, high: float, *, above: bool = False) -> dict[str, Any]:
-    """A setting's allowed values, checked by :class:`Settings`: ``low`` (excluded if
-    ``above``) to ``high``; an ``int | None`` setting may also be None."""
-    return {"range": (low, high), "above": above}
-
-
 @dataclass(frozen=True)
 class Settings:
     """How an amortised policy is trained (``--hyperparams key=value``; ``config.yml``)."""
 
     hidden: tuple[int, ...] = (64, 64)
     """Widths of the MLP's hidden layers (tanh) [-]."""
-    regression_steps: int = field(default=5000, metadata=_allowed(0, 10**6))
+    regression_steps: int = field(default=5000, metadata={"range": (0, 10**6)})
     """Adam steps of the regression on the training optima (full batch) [-]."""
-    regression_lr: float = field(default=3e-3, metadata=_allowed(0.0, 1.0, above=True))
+    regression_lr: float = field(default=3e-3, metadata={"range": (0.0, 1.0), "above": True})
     """Adam's learning rate in the regression [-]."""
-    finetune_steps: int = field(default=600, metadata=_allowed(0, 10**6))
+    finetune_steps: int = field(default=600, metadata={"range": (0, 10**6)})
     """Adam steps of the fine-tuning by the objective's gradient (0: none) [-]."""
-    finetune_lr: float = field(default=1e-3, metadata=_allowed(0.0, 1.0, above=True))
+    finetune_lr: float = field(default=1e-3, metadata={"range": (0.0, 1.0), "above": True})
     """Adam's learning rate in the fine-tuning [-]."""
-    batch: int = field(default=16, metadata=_allowed(1, 4096))
+    batch: int = field(default=16, metadata={"range": (1, 4096)})
     """Conditions per branch and fine-tuning step (all in one batched model evaluation) [-]."""
-    penalty_weight: float = field(default=10.0, metadata=_allowed(0.0, 1e6, above=True))
+    penalty_weight: float = field(default=10.0, metadata={"range": (0.0, 1e6), "above": True})
     """w of the fine-tuning's penalty [objective units per unit of margin] (the env's default
     ``penalty_weight``)."""
-    safety_margin: float = field(default=1e-3, metadata=_allowed(0.0, 0.1))
+    safety_margin: float = field(default=1e-3, metadata={"range": (0.0, 0.1)})
     """δ: the fine-tuning penalises every constraint margin below it [-] (margins are
     fractions: the level flight's tolerance is 0.02)."""
-    anchor: float = field(default=30.0, metadata=_allowed(0.0, 1e6))
+    anchor: float = field(default=30.0, metadata={"range": (0.0, 1e6)})
     """Weight of the regression loss on the training targets during the fine-tuning [-]."""
-    branch_reach: float = field(default=0.6, metadata=_allowed(0.5, 1.0, above=True))
+    branch_reach: float = field(default=0.6, metadata={"range": (0.5, 1.0), "above": True})
     """How far each branch's domain reaches into the gap to a neighbouring branch's training
-    condition, as a fraction of the gap [-] (above 0.5, so that both branches cover its
-    middle, where they hand over)."""
-    branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
-    """Two neighbouring training optima share a branch when the stroke midway between them
-    loses at most this fraction of their mean objective and violates no margin by more
-    (:func:`~train.amortised.branch_segments`) [-]."""
-    features: int = field(default=0, metadata=_allowed(0, 1024))
+    condition [fraction of the gap] (above 0.5: both cover its middle, where they hand over)."""
+    branch_tolerance: float = field(default=0.1, metadata={"range": (0.0, 1.0)})
+    """Two neighbouring training optima share a branch when the stroke midway loses at most this
+    fraction of their mean objective and violates no margin by more (``branch_segments``) [-]."""
+    features: int = field(default=0, metadata={"range": (0, 1024)})
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:func:`radial_features`)."""
-    finetune_n_time: int | None = field(default=None, metadata=_allowed(8, 4096))
+    finetune_n_time: int | None = field(default=None, metadata={"range": (8, 4096)})
     """Time samples of the fine-tuning's model (None: the env's, default 128) [-]."""
-    finetune_n_blade: int | None = field(default=None, metadata=_allowed(2, 512))
+    finetune_n_blade: int | None = field(default=None, metadata={"range": (2, 512)})
     """Blade elements of the fine-tuning's model (None: the env's, default 24) [-]."""
 
     def __post_init__(self) -> None:
@@ -123,11 +114,13 @@ class Settings:
                 "1 to 4096, e.g. [64, 64]"
             )
         object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
-        for spec in fields(self)[1:]:  # the numbers, each in its range (_allowed)
+        # the numbers, each in its metadata's range: low (excluded if "above") to high; an
+        # int | None setting may also be None
+        for spec in fields(self)[1:]:
             name, value, (low, high) = spec.name, getattr(self, spec.name), spec.metadata["range"]
             if value is None and spec.type == "int | None":
                 continue
-            real, above = spec.type == "float", spec.metadata["above"]
+            real, above = spec.type == "float", spec.metadata.get("above", False)
             if (
                 not (is_real(value) if real else is_integer(value))
                 or not (low < value if above else low <= value)
@@ -148,13 +141,11 @@ class Settings:
             raise ValueError(f"unknown amortised setting(s) {unknown}; allowed: {', '.join(names)}")
         return cls(**dict(values))
 
-    def to_dict(self) -> dict[str, Any]:
-        return to_jsonable(asdict(self))
-
 
 # --- canonical strokes -------------------------------------------------------------------------
-def _wrap_degrees(angle: np.ndarray) -> np.ndarray:
-    return (np.asarray(angle, dtype=np.float64) + 180.0) % 360.0 - 180.0
+def wrap_normalised(x: np.ndarray, half: float = 1.0) -> np.ndarray:
+    """``x`` wrapped onto [-half, half): a normalised phase, or with ``half=180`` one in degrees."""
+    return (np.asarray(x, dtype=np.float64) + half) % (2.0 * half) - half
 
 
 def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
@@ -164,10 +155,10 @@ def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
     out = np.array(physical, dtype=np.float64, copy=True)
     for base, shift in ((0, fore), (N_PER_WING, hind)):
         d = np.broadcast_to(np.asarray(shift, dtype=np.float64), out.shape[:1])
-        out[:, base + _SWEEP] = _wrap_degrees(out[:, base + _SWEEP] - d)
-        out[:, base + _PITCH] = _wrap_degrees(out[:, base + _PITCH] - d)
+        out[:, base + _SWEEP] = wrap_normalised(out[:, base + _SWEEP] - d, 180.0)
+        out[:, base + _PITCH] = wrap_normalised(out[:, base + _PITCH] - d, 180.0)
         harmonic = out[:, base + HARMONIC_INDEX]
-        out[:, base + _ELEVATION] = _wrap_degrees(out[:, base + _ELEVATION] - harmonic * d)
+        out[:, base + _ELEVATION] = wrap_normalised(out[:, base + _ELEVATION] - harmonic * d, 180.0)
     return out
 
 
@@ -179,15 +170,11 @@ def canonicalise(physical: np.ndarray, n_time: int, *, pairs_independent: bool) 
     step = 360.0 / int(n_time)
 
     def steps(phase: np.ndarray) -> np.ndarray:
-        return np.round(_wrap_degrees(phase - CANONICAL_SWEEP_PHASE) / step) * step
+        return np.round(wrap_normalised(phase - CANONICAL_SWEEP_PHASE, 180.0) / step) * step
 
     fore = steps(strokes[:, _SWEEP])
     hind = steps(strokes[:, N_PER_WING + _SWEEP]) if pairs_independent else fore
     return delay(strokes, fore, hind)
-
-
-def wrap_normalised(x: np.ndarray) -> np.ndarray:
-    return (np.asarray(x, dtype=np.float64) + 1.0) % 2.0 - 1.0
 
 
 @dataclass(frozen=True)
@@ -251,8 +238,8 @@ def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> T
 # --- the network and the policy ------------------------------------------------------------------
 def radial_features(count: int) -> Any:
     """Fixed Gaussian bumps ``exp(−((x − μ_k)/σ)²/2)`` of the observation x ∈ [-1, 1] at
-    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module): a step for one
-    condition moves mostly the strokes near it."""
+    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module), so that a step
+    for one condition moves mostly the strokes near it."""
 
     class RadialFeatures(torch.nn.Module):
         def __init__(self) -> None:
@@ -266,22 +253,20 @@ def radial_features(count: int) -> Any:
     return RadialFeatures()
 
 
-def build_network(hidden: Sequence[int], features: int = 0) -> Any:
-    """One branch's MLP 1 -> (``features`` > 0: :func:`radial_features`) -> hidden (tanh) -> 26
-    (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
-    layers: list[Any] = [radial_features(features)] if features else []
-    width = features or 1
-    for h in hidden:
-        layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
-        width = h
-    layers.append(torch.nn.Linear(width, len(CONTINUOUS)))
-    return torch.nn.Sequential(*layers).double()
-
-
 def build_networks(hidden: Sequence[int], features: int, branches: int) -> Any:
-    """The policy's network: one :func:`build_network` per branch (a ``torch.nn.ModuleList``;
-    its ``state_dict`` is the weights file)."""
-    return torch.nn.ModuleList([build_network(hidden, features) for _ in range(branches)])
+    """The policy's network (a ``torch.nn.ModuleList``; its ``state_dict`` is the weights file):
+    per branch an MLP 1 -> (``features`` > 0: :func:`radial_features`) -> hidden (tanh) -> 26
+    (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
+
+    def mlp() -> Any:
+        layers: list[Any] = [radial_features(features)] if features else []
+        width = features or 1
+        for h in hidden:
+            layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
+            width = h
+        return torch.nn.Sequential(*layers, torch.nn.Linear(width, len(CONTINUOUS))).double()
+
+    return torch.nn.ModuleList([mlp() for _ in range(branches)])
 
 
 @dataclass(frozen=True, eq=False)
@@ -327,10 +312,9 @@ class AmortisedPolicy(RunPolicy):
 
     def pre_activations(self, conditions: np.ndarray, branches: np.ndarray) -> Any:
         """(n, 26) z of each condition's branch (u = tanh z), differentiable."""
-        values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = np.asarray(branches).reshape(-1)
-        obs = torch.as_tensor(self.inputs(values, chosen), dtype=torch.float64)
-        z = torch.zeros((values.size, len(CONTINUOUS)), dtype=torch.float64)
+        obs = torch.as_tensor(self.inputs(conditions, chosen), dtype=torch.float64)
+        z = torch.zeros((obs.shape[0], len(CONTINUOUS)), dtype=torch.float64)
         for b in np.unique(chosen):
             rows = torch.as_tensor(np.flatnonzero(chosen == b))
             z = z.index_put((rows,), self.network[int(b)](obs[rows]))
@@ -402,11 +386,9 @@ def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
     canonical = (_SWEEP, N_PER_WING + _SWEEP) if pairs_independent else (_SWEEP,)
     centres = np.zeros(len(CONTINUOUS))
     for k, j in enumerate(CONTINUOUS):
-        if j not in PHASES:
-            continue
         if j in canonical:
             centres[k] = CANONICAL_SWEEP_PHASE / 180.0
-        else:
+        elif j in PHASES:
             angle = np.pi * targets.strokes[:, j]
             centres[k] = math.atan2(np.sin(angle).mean(), np.cos(angle).mean()) / np.pi
     return centres
@@ -488,15 +470,13 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
 
 
 def load_policy(run_dir: str | Path) -> AmortisedPolicy:
-    """The policy of an amortised run folder (or of the latest run it names), every file
-    checked before the network is built (the weights: a state_dict that
-    ``torch.load(weights_only=True)`` reads, with the network's names and shapes and finite
-    values); ValueError naming the file at fault."""
+    """The policy of an amortised run folder (or of the latest run it names), every file checked
+    before the network is built (the weights: a state_dict ``torch.load(weights_only=True)``
+    reads, of the network's names and shapes, finite); ValueError naming the file at fault."""
     layout, args_file, args = read_run_folder(
         run_dir, "a folder written by python -m train --algo amortised"
     )
-    folder = layout.run_dir
-    env_id = layout.env_id
+    folder, env_id = layout.run_dir, layout.env_id
     if args.get("algo") != AMORTISED:
         raise ValueError(
             f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "

@@ -1,11 +1,7 @@
-"""Training configuration: zoo-format hyperparameter files, ``key=value`` parsing, the run config.
-
-The hyperparameter files (``train/hyperparams/<algo>.yml``) follow rl-baselines3-zoo: one entry
-per env id plus a ``default`` entry, each a flat mapping of the model's constructor arguments
-and the zoo's own keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs`` as a Python
-string, ``normalize``, ``env_kwargs``). :func:`resolve_hyperparams` turns one entry (plus the
-overrides of the command line) into a :class:`Hyperparams` whose ``model_kwargs`` go straight
-to the SB3 constructor, exactly as the zoo preprocesses them.
+"""Training configuration: the run config (:class:`TrainConfig`) and the hyperparameter files
+(``train/hyperparams/<algo>.yml``, rl-baselines3-zoo's format: per env id, and ``default``, the
+model's constructor arguments and the zoo's keys :data:`ZOO_KEYS`), whose entry (with the
+command line's overrides) :func:`resolve_hyperparams` preprocesses as the zoo does.
 """
 
 from __future__ import annotations
@@ -29,7 +25,7 @@ from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
 from tandem_env.physics.checks import count, flag, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
-from train.cli import option
+from train.entry import option
 
 #: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
 ALGOS = ("ppo", "sac")
@@ -44,16 +40,9 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 #: Keys of a zoo entry that are not model constructor arguments.
 ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs")
 #: Zoo keys this trainer does not implement; refused rather than silently ignored.
-UNSUPPORTED_ZOO_KEYS = (
-    "env_wrapper",
-    "vec_env_wrapper",
-    "callback",
-    "frame_stack",
-    "monitor_kwargs",
-    "replay_buffer_class",
-    "replay_buffer_kwargs",
-    "noise_type",
-    "noise_std",
+UNSUPPORTED_ZOO_KEYS = tuple(
+    "env_wrapper vec_env_wrapper callback frame_stack monitor_kwargs replay_buffer_class "
+    "replay_buffer_kwargs noise_type noise_std".split()
 )
 #: Constructor arguments the zoo turns from "lin_<x>" strings into linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
@@ -67,8 +56,7 @@ HYPERPARAM_RANGES: dict[str, tuple[bool, float, float]] = {
     **dict.fromkeys(("ent_coef", "vf_coef", "max_grad_norm"), (False, 0.0, math.inf)),
 }
 
-# Modules whose classes a ``policy_kwargs`` string may name (activation functions, optimisers),
-# under the zoo's spellings.
+# Modules whose classes (activations, optimisers) ``policy_kwargs`` may name, as the zoo spells them
 _POLICY_KWARGS_MODULES = {
     **dict.fromkeys(("nn", "th.nn", "torch.nn"), "torch.nn"),
     **dict.fromkeys(("th.optim", "torch.optim"), "torch.optim"),
@@ -82,11 +70,9 @@ _POLICY_KWARGS_ALLOWED = (
 
 # --- parsing ---------------------------------------------------------------------------------
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
-    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
-
-    The zoo evaluates it; here it is read from its syntax tree and nothing runs (literals,
-    ``dict``/``list``/``tuple`` and ``torch.nn``/``torch.optim`` classes, looked up).
-    """
+    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``,
+    read from its syntax tree, nothing run (the zoo evaluates it): literals, ``dict``, ``list``,
+    ``tuple`` and ``torch.nn`` / ``torch.optim`` classes (looked up)."""
     try:
         value = _policy_value(ast.parse(text, mode="eval").body, text)
     except (SyntaxError, RecursionError, MemoryError) as error:

@@ -15,33 +15,21 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from tandem_env.io.files import atomic_path, read_json
-from train.cli import command, option
+from train.entry import command, option
 from train.run_folder import read_run_folder
 
 
-@dataclass(frozen=True)
-class Curves:
-    """What one run's files say, as arrays over env steps."""
-
-    label: str
-    steps: np.ndarray
-    """(n,) env step of each training stroke (1-based)."""
-    reward: np.ndarray
-    """(n,) reward of each training stroke."""
-    best_feasible: np.ndarray
-    """(n,) objective of the best feasible stroke so far (NaN before the first)."""
-    eval_steps: np.ndarray
-    eval_reward: np.ndarray
-    """Mean deterministic-policy reward over the evaluation conditions."""
-    wall_time: float | None
-
-
-def read_run(run_dir: str | Path) -> Curves:
-    """Monitor CSVs (every segment, in order) and evaluations.npz of a run folder."""
+def read_run(run_dir: str | Path) -> tuple[str, np.ndarray, np.ndarray, np.ndarray, Any, Any]:
+    """What one run folder's Monitor CSVs (every segment, in order), ``evaluations.npz`` and
+    ``result.json`` say: its label; per training stroke (n,) its reward and the objective of
+    the best feasible stroke so far (NaN before the first); the env steps of the evaluations
+    and the deterministic policy's mean reward over the evaluation conditions at each; and the
+    wall time [s] (None if unknown)."""
     layout = read_run_folder(run_dir, "a run folder of python -m train")[0]
     rows = []
     for path in layout.monitor_files():
@@ -54,24 +42,14 @@ def read_run(run_dir: str | Path) -> Curves:
     reward, objective, feasible = np.array(rows, dtype=np.float64).reshape(-1, 3).T
     best = np.maximum.accumulate(np.where(feasible == 1.0, objective, -np.inf))
     best = np.where(np.isfinite(best), best, np.nan)
-    eval_steps = np.zeros(0)
-    eval_reward = np.zeros(0)
+    eval_steps = eval_reward = np.zeros(0)
     if layout.evaluations.is_file():
         with np.load(layout.evaluations) as data:
-            eval_steps = data["timesteps"]
-            eval_reward = data["results"].mean(axis=1)
+            eval_steps, eval_reward = data["timesteps"], data["results"].mean(axis=1)
     wall = (
         read_json(layout.result_file).get("wall_time_s") if layout.result_file.is_file() else None
     )
-    return Curves(
-        layout.run_dir.name,
-        np.arange(1, len(reward) + 1),
-        reward,
-        best,
-        eval_steps,
-        eval_reward,
-        wall,
-    )
+    return layout.run_dir.name, reward, best, eval_steps, eval_reward, wall
 
 
 def binned_mean(steps: np.ndarray, values: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
@@ -94,16 +72,17 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
 
     curves = [read_run(r) for r in runs]
     fig, (left, right) = plt.subplots(1, 2, figsize=(8.0, 3.0), dpi=90)
-    for k, c in enumerate(curves):
+    for k, (name, reward, best, eval_steps, eval_reward, wall) in enumerate(curves):
         color = f"C{k}"
-        label = c.label + ("" if c.wall_time is None else f" ({c.wall_time:.0f} s)")
-        if len(c.steps):
-            x, y = binned_mean(c.steps, c.reward, bins)
+        steps = np.arange(1, len(reward) + 1)  # env step of each training stroke (1-based)
+        if len(steps):
+            x, y = binned_mean(steps, reward, bins)
+            label = name + ("" if wall is None else f" ({wall:.0f} s)")
             left.plot(x, y, color=color, lw=1.2, label=label)
-            every = max(1, len(c.steps) // 400)
-            right.plot(c.steps[::every], c.best_feasible[::every], color=color, lw=1.2)
-        if len(c.eval_steps):
-            right.plot(c.eval_steps, c.eval_reward, ".", color=color, ms=3)
+            every = max(1, len(steps) // 400)
+            right.plot(steps[::every], best[::every], color=color, lw=1.2)
+        if len(eval_steps):
+            right.plot(eval_steps, eval_reward, ".", color=color, ms=3)
     left.set_yscale("symlog", linthresh=1.0)
     # symlog's default ticks leave this range unlabelled; name the decades.
     left.set_yticks([-100, -30, -10, -3, -1, 0, 0.5])
@@ -111,7 +90,7 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
     left.set(xlabel="env steps (strokes evaluated)", ylabel="mean training reward")
     left.legend(fontsize=7)
     right.set_xlabel("env steps")
-    if any(len(c.eval_steps) for c in curves):
+    if any(len(c[3]) for c in curves):
         right.set_ylabel("best feasible objective (line)\ndeterministic reward (dots)", fontsize=8)
         right.set_ylim(-0.5, None)  # deterministic rewards far below 0 are off the chart
     else:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from train.entry import exit_on_bad_environment
+from train.entry import command, exit_on_bad_environment, option
 
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.envelope"):
@@ -24,40 +24,15 @@ with exit_on_bad_environment("python -m train.envelope"):
 from agents.tasks import available_tasks, get_task, task_of
 from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic
-from train.cli import command, option
 
 #: Columns of envelope.csv.
-COLUMNS: tuple[str, ...] = (
-    "condition",
-    "condition_value",
-    "condition_unit",
-    "objective_name",
-    "objective",
-    "reward",
-    "feasible",
-    "score",
-    "efficiency",
-    "lift_to_weight",
-    "power_per_mass",
-    "excess_vertical",
-    "excess_horizontal",
-    "constraint_violation",
-    "trained_at",
-    "evaluations",
-    "training_timesteps",
-    "model",
-    "run_dir",
+COLUMNS: tuple[str, ...] = tuple(
+    "condition condition_value condition_unit objective_name objective reward feasible score "
+    "efficiency lift_to_weight power_per_mass excess_vertical excess_horizontal "
+    "constraint_violation trained_at evaluations training_timesteps model run_dir".split()
 )
 #: The columns that are a record's attributes.
 RECORD_COLUMNS = COLUMNS[3:8]
-
-
-def sweep_conditions(task: str) -> tuple[float, ...]:
-    """The task's declared sweep (its env config's ``CONDITION.sweep``)."""
-    declared = get_task(task).declaration.condition
-    if declared is None:
-        raise ValueError(f"task {task!r} declares no sweep; give the conditions")
-    return declared.sweep
 
 
 def evaluate_envelope(
@@ -68,12 +43,9 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the sweep, :func:`sweep_conditions`);
-    write envelope.csv.
-
-    One job per condition, run and stored by the runner (:func:`agents.runner.run_jobs`, the
-    one writer of the records), here, one after another; a rerun replaces the records (the run
-    folder may hold a newer model under the same name)."""
+    """Record the run's policy at each condition (default the task's declared sweep),
+    one job each, run and stored in turn by the runner (:func:`agents.runner.run_jobs`); a rerun
+    replaces the records (the run may hold a newer model of the same name). Writes envelope.csv."""
     from agents.harness import prepare
     from agents.runner import run_jobs
     from train.trained_policy import TrainingMismatchWarning, load_policy
@@ -82,7 +54,12 @@ def evaluate_envelope(
     task = task_of(policy.env_id)
     # The harness sets the condition itself; every other training option is kept.
     env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
-    values = tuple(conditions) if conditions is not None else sweep_conditions(task)
+    if conditions is None:
+        declared = get_task(task).declaration.condition  # its env config's CONDITION
+        if declared is None:
+            raise ValueError(f"task {task!r} declares no sweep; give the conditions")
+        conditions = declared.sweep
+    values = tuple(conditions)
     out = Path(out_dir)
     with warnings.catch_warnings():
         # Said once, for every condition, by the trained_at column (and main's note).

@@ -1,8 +1,7 @@
-"""Stable-Baselines3 models as harness methods (docs/training.md, "Through the harness"):
-``policy:RUN_DIR``, a policy trained by ``python -m train`` asked once for its deterministic
-stroke, and ``ppo`` / ``sac``, trained at the harness's condition within its budget of env
-steps. Registered with the harness when imported (the provider :mod:`agents.methods` imports
-on first use, so ``agents`` imports SB3 only when asked).
+"""Stable-Baselines3 models as harness methods (docs/training.md, "Through the harness"),
+registered when imported (:mod:`agents.methods` imports it on first use): ``policy:RUN_DIR``, a
+trained policy asked once for its deterministic stroke, and ``ppo`` / ``sac``, trained at the
+harness's condition within its budget of env steps.
 """
 
 from __future__ import annotations
@@ -36,10 +35,9 @@ from train.config import (
     plain,
     step_granularity,
 )
-from train.run import TrainResult, budget_hyperparams, learn_in_memory, train
+from train.run import StrokeRecorder, TrainResult, budget_hyperparams, learn_in_memory, train
 from train.run_folder import resolve_run_dir
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
-from train.vec import StrokeRecorder
 
 _SB3 = "Stable-Baselines3 implementation (Raffin et al. 2021, JMLR 22(268))"
 CITATIONS: dict[str, str] = {
@@ -141,10 +139,8 @@ class TrainingMethod:
     conf_file: str | None = None
     torch_threads: int = 1
     log_dir: str | None = None
-    """If given, train through ``python -m train``'s code into ``log_dir/<algo>/<env>_<n>/``
-    (Monitor, TensorBoard, final model, result.json; no EvalCallback and no checkpoints, whose
-    evaluations the budget would not count), so the run can be plotted and reused as
-    ``policy:RUN_DIR``."""
+    """If given, train as ``python -m train`` into ``log_dir/<algo>/<env>_<n>/`` (no evaluations
+    or checkpoints, which the budget would not count), to plot and reuse as ``policy:RUN_DIR``."""
 
     def __post_init__(self) -> None:
         check_algo(self.algo)
@@ -200,8 +196,7 @@ class TrainingMethod:
         if training.best_action is None or is_better(
             final["feasible"], final["reward"], best_feasible, training.best_reward
         ):
-            best_action, best_reward = final["action"], final["reward"]
-            chosen = "final policy"
+            best_action, best_reward, chosen = final["action"], final["reward"], "final policy"
         else:
             best_action = np.asarray(training.best_action, dtype=np.float64)
             best_reward, chosen = training.best_reward, "seen during training"
@@ -331,26 +326,18 @@ def policy_factory(argument: str | None, config: Mapping[str, Any]) -> Method:
     return PolicyMethod(run_dir, which)
 
 
-def training_factory(algo: str):
-    """The factory of ``ppo`` or ``sac``: settings are hyperparameter overrides, plus
-    ``n_envs``, ``conf_file`` (a zoo-format yml) and ``torch_threads``."""
-
-    def factory(argument: str | None, config: Mapping[str, Any]) -> Method:
-        if argument is not None:
-            raise ValueError(f"method {algo!r} takes no ':' argument; got {algo}:{argument}")
-        settings = dict(config)
-        extra = {key: settings.pop(key) for key in _TRAINING_SETTINGS if key in settings}
-        return TrainingMethod(algo, overrides=settings, **extra)
-
-    return factory
+def training_factory(algo: str, argument: str | None, config: Mapping[str, Any]) -> Method:
+    """``ppo`` or ``sac`` (``algo``, bound when registered): settings are hyperparameter
+    overrides, plus ``n_envs``, ``conf_file`` (a zoo-format yml) and ``torch_threads``."""
+    if argument is not None:
+        raise ValueError(f"method {algo!r} takes no ':' argument; got {algo}:{argument}")
+    settings = dict(config)
+    extra = {key: settings.pop(key) for key in _TRAINING_SETTINGS if key in settings}
+    return TrainingMethod(algo, overrides=settings, **extra)
 
 
-def register() -> None:
-    """Register ``ppo``, ``sac`` and ``policy`` with the harness (idempotent)."""
-    for algo in ALGOS:
-        register_method(algo, training_factory(algo), replace=True)
-    register_method("policy", policy_factory, replace=True)
-
-
-# Importing this module registers the methods: their tandem_env.optimisers entry points name it.
-register()
+# Importing this module registers ppo, sac and policy with the harness (idempotently): their
+# tandem_env.optimisers entry points name it.
+for _algo in ALGOS:
+    register_method(_algo, functools.partial(training_factory, _algo), replace=True)
+register_method("policy", policy_factory, replace=True)

@@ -1,13 +1,17 @@
-"""One training run: build the envs and the model from a :class:`~train.config.TrainConfig`,
-learn with evaluation, checkpoints, Monitor and TensorBoard logs, and resume a killed run.
+"""One training run (:func:`train`, what ``python -m train`` calls): the envs and the model of a
+:class:`~train.config.TrainConfig`, learning with evaluations, checkpoints, Monitor and
+TensorBoard logs, and the resume of a killed run; :func:`learn_in_memory` is the lean variant of
+the harness's ``ppo`` / ``sac`` (no files, a budget of env steps). Callbacks: physical metrics
+to TensorBoard (:class:`PhysicsLogger`: SB3's logger only knows rewards), an EvalCallback that
+resumes, checkpoints and Ctrl-C (:class:`RunCheckpoint`).
 
-:func:`train` is what ``python -m train`` calls; :func:`learn_in_memory` is the lean variant
-the harness's ``ppo`` / ``sac`` methods use (no files, a budget of env steps). The run's
-callbacks: physical metrics to TensorBoard (SB3's own logger only knows rewards: every vector
-step's ``info`` dicts, the model's metrics of each evaluated stroke with its normalised score
-against the reference optimum, docs/reference.md, are averaged into ``physics/*`` scalars, the
-best stroke seen so far logged beside them), an EvalCallback that resumes, checkpoints
-and Ctrl-C (:class:`RunCheckpoint`).
+The env stacks. Training (bottom up): the batched SB3 adapter (one model call per step) ->
+:class:`StrokeRecorder` (raw rewards: the best stroke seen, the evaluation count) ->
+``VecMonitor`` (episode CSV with the physical metrics) -> ``VecNormalize`` if the
+hyperparameters ask for it. Evaluation: the adapter, one sub-env per evaluation condition ->
+:class:`ConditionGrid` (``best_model.zip`` is chosen on a fixed, not a resampled, set) ->
+``VecMonitor`` -> ``VecNormalize(training=False, norm_reward=False)``, on which
+:func:`evaluate_deterministic` plays a model's deterministic policy.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import threading
 import time
 import warnings
 import zipfile
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,21 +31,22 @@ from typing import Any
 import numpy as np
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
-from stable_baselines3.common.vec_env import sync_envs_normalization
+from stable_baselines3.common.callbacks import (
+    BaseCallback,
+    CallbackList,
+    ConvertCallback,
+    EvalCallback,
+)
+from stable_baselines3.common.vec_env import VecMonitor, VecNormalize, sync_envs_normalization
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvStepReturn, VecEnvWrapper
 
-from agents.selection import best_index
+from agents.selection import BestStroke, best_index
+from tandem_env.envs.registration import config_class
+from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
 from tandem_env.io.files import write_json_atomic
 from train.config import Hyperparams, TrainConfig, resolve_hyperparams, step_granularity
 from train.run_folder import Checkpoint, Interrupted, RunFolder, RunLayout
 from train.saved import build_model, read_normalizer, save_checkpoint
-from train.vec import (
-    STROKE_METRICS,
-    StrokeRecorder,
-    evaluate_deterministic,
-    make_evaluation_env,
-    make_training_env,
-)
 
 #: Checkpoints kept in a run folder (older ones are deleted: a SAC replay buffer is ~40 MB).
 KEEP_CHECKPOINTS = 2
@@ -73,6 +78,158 @@ class TrainResult:
     """The hyperparameters it trained with (``config.yml``)."""
 
 
+# --- the env stacks ------------------------------------------------------------------------------
+#: The ``info`` entries of an evaluated stroke that both the Monitor CSV and the logs keep.
+STROKE_METRICS = ("objective", "efficiency", "lift_to_weight", "power_per_mass", "feasible")
+#: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
+MONITOR_KEYWORDS: tuple[str, ...] = (*STROKE_METRICS, "speed", "available_power")
+
+
+class StrokeRecorder(VecEnvWrapper):
+    """Keeps the best stroke any sub-env was given by the harness's selection rule
+    (:mod:`agents.selection`: feasible first, then the higher raw reward, the earlier on ties)
+    and counts evaluations. On the adapter itself, it sees the exact actions evaluated (after
+    SB3's clipping or rescaling) and the env's own rewards (before any normalisation)."""
+
+    def __init__(self, venv: VecEnv, on_step: Callable[[StrokeRecorder], None] | None = None):
+        super().__init__(venv)
+        # VecMonitor writes the env id into the Monitor header when the stack has a spec.
+        self.spec = getattr(getattr(venv, "vector_env", None), "spec", None)
+        self.evaluations = 0
+        self.steps = 0
+        self.best_reward = -np.inf
+        self.best_feasible = False
+        self.best_action: np.ndarray | None = None
+        self.best_info: dict[str, Any] | None = None
+        self.max_reward = -np.inf
+        self.history: list[tuple[int, float]] = []
+        """(evaluations, best reward so far, feasible or not) per vector step: never decreasing."""
+        self._best = BestStroke()
+        self._actions: np.ndarray | None = None
+        self._on_step = on_step
+
+    def reset(self) -> np.ndarray:
+        return self.venv.reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.array(actions, copy=True)
+        self.venv.step_async(actions)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        observations, rewards, dones, infos = self.venv.step_wait()
+        # float64 rewards: a record compares the stroke's reward with its re-evaluation, which
+        # is objective - penalty exactly as the task computes it (SB3 gets float32)
+        exact = np.asarray(rewards, dtype=np.float64)
+        if infos and all("objective" in info and "penalty" in info for info in infos):
+            exact = np.array([i["objective"] - i["penalty"] for i in infos], dtype=np.float64)
+        feasible = np.array([bool(info.get("feasible", True)) for info in infos], dtype=bool)
+        i = None if self._actions is None else self._best.offer(feasible, exact)
+        if i is not None:
+            self.best_reward = self._best.reward
+            self.best_feasible = self._best.feasible
+            self.best_action = self._actions[i].copy()
+            self.best_info = {k: v for k, v in infos[i].items() if k != "terminal_observation"}
+        clean = np.where(np.isnan(exact), -np.inf, exact)
+        self.max_reward = max(self.max_reward, float(clean.max()))
+        self.evaluations += len(rewards)
+        self.steps += 1
+        self.history.append((self.evaluations, self.max_reward))
+        if self._on_step is not None:
+            self._on_step(self)
+        return observations, rewards, dones, infos
+
+
+class ConditionGrid(VecEnvWrapper):
+    """Resets sub-env i of the batched adapter ``venv`` at ``conditions[i]`` at every reset
+    (through the env's reset option, e.g. ``speed``)."""
+
+    def __init__(self, venv: TandemVecEnv, conditions: Sequence[float]) -> None:
+        super().__init__(venv)
+        self.option_key = venv.vector_env.core.option_key
+        self.conditions = tuple(float(c) for c in conditions)
+
+    def reset(self) -> np.ndarray:
+        self.venv.set_options([{self.option_key: c} for c in self.conditions])
+        return self.venv.reset()
+
+    def step_wait(self) -> VecEnvStepReturn:
+        return self.venv.step_wait()
+
+
+def make_training_env(
+    env_id: str,
+    n_envs: int,
+    seed: int,
+    env_kwargs: Mapping[str, Any],
+    *,
+    monitor_file: Path | None = None,
+    normalize: Mapping[str, Any] | None = None,
+    on_step: Callable[[StrokeRecorder], None] | None = None,
+) -> tuple[VecEnv, StrokeRecorder]:
+    """The training stack (module docstring; None: no Monitor file or VecNormalize), its recorder."""
+    recorder = StrokeRecorder(
+        make_sb3_vec_env(env_id, n_envs=n_envs, seed=seed, **env_kwargs), on_step
+    )
+    filename = None if monitor_file is None else str(monitor_file)
+    venv: VecEnv = VecMonitor(recorder, filename=filename, info_keywords=MONITOR_KEYWORDS)
+    if normalize is not None:
+        venv = VecNormalize(venv, **normalize)
+    return venv, recorder
+
+
+def make_evaluation_env(
+    env_id: str, env_kwargs: Mapping[str, Any], seed: int, *, normalize: Mapping[str, Any] | None
+) -> VecEnv:
+    """The evaluation stack at the fixed condition, or the declared sweep's points in the
+    sampled range (its ends and midpoint where it holds fewer than two)."""
+    config = config_class(env_id).from_kwargs(**env_kwargs)
+    if config.condition_range is None:
+        conditions: tuple[float, ...] = (float(config.fixed_condition),)
+    else:
+        low, high = config.condition_range
+        declared = type(config).CONDITION
+        sweep = () if declared is None else declared.sweep
+        inside = tuple(c for c in sweep if low - 1e-9 <= c <= high + 1e-9)
+        conditions = inside if len(inside) >= 2 else (low, 0.5 * (low + high), high)
+    base = make_sb3_vec_env(env_id, n_envs=len(conditions), seed=seed, **env_kwargs)
+    venv: VecEnv = VecMonitor(ConditionGrid(base, conditions))
+    if normalize is not None:
+        venv = VecNormalize(venv, **{**normalize, "training": False, "norm_reward": False})
+    return venv
+
+
+def evaluate_deterministic(
+    model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
+) -> list[dict[str, Any]]:
+    """The deterministic policy from one reset of each evaluation env to the end of its episode:
+    one row per env, the info of its last step with ``reward`` (the return),
+    ``episode_length`` and ``action`` (its first)."""
+    observations = eval_env.reset()
+    returns = np.zeros(eval_env.num_envs)
+    lengths = np.zeros(eval_env.num_envs, dtype=np.int64)
+    first_actions: Any = None
+    rows: list[dict[str, Any] | None] = [None] * eval_env.num_envs
+    dropped = ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
+    for _ in range(max_steps):
+        actions, _ = model.predict(observations, deterministic=True)
+        first_actions = actions if first_actions is None else first_actions
+        observations, rewards, dones, infos = eval_env.step(actions)
+        # an env whose episode is over keeps its row: later steps belong to the next one
+        playing = np.array([row is None for row in rows])
+        returns[playing] += np.asarray(rewards, dtype=np.float64)[playing]
+        lengths[playing] += 1
+        for k in np.flatnonzero(playing & np.asarray(dones, dtype=bool)):
+            rows[k] = {key: v for key, v in infos[k].items() if key not in dropped}
+            rows[k].update(  # type: ignore[union-attr]
+                reward=float(returns[k]),
+                episode_length=int(lengths[k]),
+                action=[float(a) for a in first_actions[k]],
+            )
+        if all(row is not None for row in rows):
+            return rows  # type: ignore[return-value]
+    raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
+
+
 # --- building blocks -----------------------------------------------------------------------
 @contextlib.contextmanager
 def torch_threads(count: int) -> Iterator[None]:
@@ -97,7 +254,9 @@ LOGGED_METRICS: tuple[str, ...] = (*STROKE_METRICS, "constraint_violation", "sco
 
 
 class PhysicsLogger(BaseCallback):
-    """Logs batch means of the physical metrics and the best stroke seen so far."""
+    """Logs as ``physics/*`` scalars the means over each vector step's ``info`` dicts of the
+    model's metrics of each evaluated stroke and its normalised score against the reference
+    optimum (docs/reference.md), and the best stroke seen so far."""
 
     def __init__(self, recorder: StrokeRecorder, verbose: int = 0) -> None:
         super().__init__(verbose)
@@ -158,33 +317,13 @@ class ResumableEvalCallback(EvalCallback):
             self.evaluations_successes = [list(map(bool, s)) for s in successes[keep]]
 
 
-class SaveVecNormalize(BaseCallback):
-    """Saves the training VecNormalize statistics (called by EvalCallback on a new best model,
-    so ``best_model.zip`` is loaded with the statistics it was evaluated with)."""
-
-    def __init__(self, path: Path, verbose: int = 0) -> None:
-        super().__init__(verbose)
-        self.path = Path(path)
-
-    def _on_step(self) -> bool:
-        normalizer = self.model.get_vec_normalize_env()
-        if normalizer is not None:
-            normalizer.save(str(self.path))
-        return True
-
-
 class RunCheckpoint(BaseCallback):
-    """Checkpoints every ``save_freq`` env steps (<= 0: none), keeping the newest ``keep``; and
-    Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step (not a
-    KeyboardInterrupt wherever it lands), for :meth:`save` to checkpoint the last rollout's end
-    (:attr:`boundary`: the unfinished rollout's steps are collected again on resume). A second
-    Ctrl-C raises KeyboardInterrupt at once.
-
-    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
-    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
-    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
-    up to the checkpoint's step. Files are named as CheckpointCallback names them.
-    """
+    """Checkpoints every ``save_freq`` env steps (<= 0: none), keeping the newest ``keep``, at a
+    rollout's end (named as SB3's CheckpointCallback names them; that one saves inside
+    ``on_step``, before SAC stores the step's transitions, which a resume would miss). Ctrl-C
+    (SIGINT) while :meth:`catching` stops ``learn`` at the next env step, for :meth:`save` to
+    checkpoint the last rollout's end (:attr:`boundary`: the unfinished rollout is collected
+    again on resume); a second Ctrl-C raises KeyboardInterrupt at once."""
 
     def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
         super().__init__(verbose)
@@ -265,6 +404,13 @@ def train(config: TrainConfig) -> TrainResult:
         start_step = model.num_timesteps
         # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
         checkpoints = RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
+
+        def save_best_statistics(*_: Any) -> bool:
+            """On a new best model, the training VecNormalize statistics: ``best_model.zip``
+            is loaded with those it was evaluated with."""
+            model.get_vec_normalize_env().save(str(layout.best_vecnormalize))
+            return True
+
         hooks: list[BaseCallback] = [PhysicsLogger(recorder), checkpoints]
         if config.eval_freq > 0:
             hooks.append(
@@ -278,7 +424,7 @@ def train(config: TrainConfig) -> TrainResult:
                     verbose=config.verbose,
                     callback_on_new_best=None
                     if hp.normalize is None
-                    else SaveVecNormalize(layout.best_vecnormalize),
+                    else ConvertCallback(save_best_statistics),
                     resume_from_step=None if checkpoint is None else start_step,
                 )
             )
@@ -375,20 +521,10 @@ def learn_in_memory(
     env_kwargs = {**hp.env_kwargs, **env_kwargs}
     with torch_threads(threads):
         venv, recorder = make_training_env(
-            env_id,
-            hp.n_envs,
-            seed,
-            env_kwargs,
-            monitor_file=None,
-            normalize=hp.normalize,
-            on_step=on_step,
+            env_id, hp.n_envs, seed, env_kwargs, normalize=hp.normalize, on_step=on_step
         )
         model = build_model(hp.algo, hp, venv, seed=seed)
-        model.learn(
-            hp.n_timesteps,
-            log_interval=default_log_interval(hp),
-            progress_bar=False,
-        )
+        model.learn(hp.n_timesteps, log_interval=default_log_interval(hp), progress_bar=False)
     if recorder.evaluations > hp.n_timesteps:  # whole iterations: cannot happen; never record it
         raise RuntimeError(f"{hp.algo} used {recorder.evaluations} env steps > {hp.n_timesteps}")
     return model, recorder

@@ -1,8 +1,7 @@
-"""A training run's folder (docs/training.md, "The run folder"): what it is (:class:`RunLayout`,
-rl-baselines3-zoo's layout ``logs/<algo>/<env>_<n>/``, its checkpoints and its lock; a run of
-this project is told from rl_zoo3's by the ``made_by`` entry of its ``args.yml``) and when a
-run goes on there (:meth:`RunFolder.open`, every refusal before any work). PPO, SAC
-(:func:`train.run.train`) and the amortised policy (:func:`train.amortised.train_run`) share it.
+"""A training run's folder (docs/training.md, "The run folder") of PPO, SAC and the amortised
+policy: its files (:class:`RunLayout`, rl-baselines3-zoo's ``logs/<algo>/<env>_<n>/``; a run of
+this project is told from rl_zoo3's by ``made_by`` in ``args.yml``) and when a run goes on
+there (:meth:`RunFolder.open`, every refusal before any work).
 """
 
 from __future__ import annotations

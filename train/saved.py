@@ -1,9 +1,9 @@
 """A run folder's files read and written without running anything in them (docs/training.md,
-"What a run folder may hold"): a model is rebuilt from the run's ``config.yml``
-(:func:`build_model`) and given the zip's ``num_timesteps`` (its ``data`` parsed as JSON) and
-its weights (``torch.load(weights_only=True)``) by :func:`load_model`; SAC's replay buffer is
-an ``.npz`` of arrays; the YAML, the ``VecNormalize`` statistics and ``result.json`` have
-their own readers. SB3's ``load`` and ``load_replay_buffer`` unpickle, so they never read one.
+"What a run folder may hold"; SB3's ``load`` and ``load_replay_buffer`` unpickle, so never read
+one): :func:`load_model` rebuilds a model from ``config.yml`` and gives it the zip's
+``num_timesteps`` (``data`` parsed as JSON) and weights (``torch.load(weights_only=True)``);
+SAC's replay buffer is an ``.npz`` of arrays; the YAML, ``VecNormalize`` and ``result.json``
+have their own readers.
 """
 
 from __future__ import annotations
@@ -27,11 +27,11 @@ from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.logger import HumanOutputFormat, Logger
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
+from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import atomic_path, read_json
 from tandem_env.physics.checks import is_integer, is_real
 from train.config import MAX_TIMESTEPS, Hyperparams
-from train.vec import make_training_env
 
 
 class Incomplete(ValueError):
@@ -44,25 +44,20 @@ class Incomplete(ValueError):
 
 
 # --- the YAML, the normalisation statistics and result.json -----------------------------------
-#: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to, by module: the wrapper and
-#: its running statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
+#: The globals (``module:name``) a pickled ``VecNormalize`` (SB3's ``save``) refers to: the
+#: wrapper, its running statistics, spaces, numpy arrays and random generators; none runs code.
 _NORMALIZER_GLOBALS = frozenset(
-    (module, name)
-    for module, names in {
-        "stable_baselines3.common.vec_env.vec_normalize": ("VecNormalize",),
-        "stable_baselines3.common.running_mean_std": ("RunningMeanStd",),
-        "gymnasium.spaces.box": ("Box",),
-        "gymnasium.spaces.dict": ("Dict",),
-        "gymnasium.spaces.discrete": ("Discrete",),
-        "collections": ("OrderedDict",),
-        "numpy": ("dtype", "ndarray"),
-        "numpy.core.multiarray": ("_reconstruct", "scalar"),
-        "numpy._core.multiarray": ("_reconstruct", "scalar"),
-        "numpy.random._pickle": ("__generator_ctor", "__bit_generator_ctor"),
-        "numpy.random._pcg64": ("PCG64",),
-        "numpy.random.bit_generator": ("SeedSequence", "__pyx_unpickle_SeedSequence"),
-    }.items()
-    for name in names
+    tuple(entry.split(":"))
+    for entry in (
+        "stable_baselines3.common.vec_env.vec_normalize:VecNormalize collections:OrderedDict "
+        "stable_baselines3.common.running_mean_std:RunningMeanStd gymnasium.spaces.box:Box "
+        "gymnasium.spaces.dict:Dict gymnasium.spaces.discrete:Discrete numpy:dtype numpy:ndarray "
+        "numpy.core.multiarray:_reconstruct numpy.core.multiarray:scalar "
+        "numpy._core.multiarray:_reconstruct numpy._core.multiarray:scalar "
+        "numpy.random._pickle:__generator_ctor numpy.random._pickle:__bit_generator_ctor "
+        "numpy.random._pcg64:PCG64 numpy.random.bit_generator:SeedSequence "
+        "numpy.random.bit_generator:__pyx_unpickle_SeedSequence"
+    ).split()
 )
 
 
@@ -98,10 +93,9 @@ def read_normalizer(path: Path) -> Any:
 
 # --- the YAML of a run folder ---------------------------------------------------------------
 class RunFileLoader(BoundedLoader):
-    """YAML's safe loader, bounded in what a document may expand to (:class:`BoundedLoader`),
-    plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its ``OrderedDict`` of arguments
-    and hyperparameters, and of tuples such as ``train_freq``; :func:`_construct`). Every other
-    tag is refused (:class:`ForbiddenTag`) before anything is built."""
+    """YAML's safe loader, bounded (:class:`BoundedLoader`), plus the two Python tags rl_zoo3
+    writes (its ``OrderedDict`` of settings, tuples such as ``train_freq``; :func:`_construct`);
+    every other tag is refused (:class:`ForbiddenTag`) before anything is built."""
 
 
 class ForbiddenTag(yaml.constructor.ConstructorError):
@@ -117,10 +111,8 @@ _ORDERED_DICT = "tag:yaml.org,2002:python/object/apply:collections.OrderedDict"
 
 
 def _construct(loader: RunFileLoader, node: yaml.Node) -> Any:
-    """A ``!!python/tuple`` sequence as a tuple, a
-    ``!!python/object/apply:collections.OrderedDict`` as a dict (PyYAML writes an OrderedDict
-    as a one-item sequence: the list of [key, value] pairs); any other tag, or the tag in
-    another form than the zoo's, is refused (:class:`ForbiddenTag`)."""
+    """A ``!!python/tuple`` sequence as a tuple, an ``OrderedDict`` (PyYAML writes a one-item
+    sequence: the list of [key, value] pairs) as a dict; any other tag or form is refused."""
     if isinstance(node, yaml.SequenceNode) and node.tag in (_TUPLE, _ORDERED_DICT):
         items = loader.construct_sequence(node, deep=True)
         if node.tag == _TUPLE:
@@ -259,11 +251,10 @@ VARIABLES_MEMBER = "pytorch_variables.pth"
 
 
 def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``:
-    its ``data`` parsed as JSON (nothing decoded), each ``.pth`` read with
-    ``torch.load(weights_only=True)``; ValueError naming the file (and member) for a
-    serialized entry that names none of ``attributes`` (the rebuilt model's: only a tampered
-    file has one), a bad count, or weights that fail the load."""
+    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path`` (its
+    ``data`` parsed as JSON, each ``.pth`` read with ``torch.load(weights_only=True)``);
+    ValueError naming the file (and member) for a serialized entry that is none of the rebuilt
+    model's ``attributes`` (a tampered file), a bad count, or weights that fail the load."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
     try:
@@ -308,13 +299,11 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
         for name in archive.namelist():
             if not name.endswith(".pth"):
                 continue
+            stream = io.BytesIO(_read_member(archive, name, path))
             try:
                 with warnings.catch_warnings():  # torch's notes on a file it then refuses
                     warnings.simplefilter("ignore", UserWarning)
-                    stream = io.BytesIO(_read_member(archive, name, path))
                     content = torch.load(stream, map_location="cpu", weights_only=True)
-            except Incomplete:
-                raise
             # An untrusted file: whatever torch's restricted unpickler or its zip reader raise
             # (UnpicklingError, RuntimeError, EOFError, ...) means the same refusal.
             except Exception as error:
@@ -488,7 +477,7 @@ def load_on_copy(
 ) -> BaseAlgorithm:
     """A model file (:func:`load_model`) loaded on a throwaway copy of the run's env."""
     # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
-    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
+    venv = make_sb3_vec_env(env_id, n_envs=hp.n_envs, seed=0, **env_kwargs)
     try:
         return load_model(algo, path, hp, venv, seed=0, **checkpoint)
     except BaseException:

@@ -1,7 +1,5 @@
 """A policy trained by ``python -m train``, loaded from its run folder and asked for strokes:
-:class:`TrainedPolicy` (ppo, sac) and :func:`load_policy`, which loads either kind of run
-folder (an amortised run as a :class:`train.amortised_policy.AmortisedPolicy`, which answers
-the same questions, :class:`~train.run_folder.RunPolicy`).
+:class:`TrainedPolicy` (ppo, sac), and :func:`load_policy` of either kind of run folder.
 """
 
 from __future__ import annotations
@@ -20,9 +18,9 @@ from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.amortised_policy import load_policy as load_amortised
 from train.config import AMORTISED, check_algo, resolve_hyperparams
+from train.run import ConditionGrid
 from train.run_folder import RunPolicy, read_run_folder
 from train.saved import load_on_copy, read_normalizer, read_run_yaml
-from train.vec import ConditionGrid
 
 WhichModel = Literal["best", "final"]
 WHICH_MODELS: tuple[str, ...] = get_args(WhichModel)
@@ -46,8 +44,6 @@ class TrainedPolicy(RunPolicy):
     run_dir: Path
     algo: str
     env_id: str
-    entry: Mapping[str, Any]
-    """The run's hyperparameters (``config.yml``)."""
     env_kwargs: Mapping[str, Any]
     """The env options it was trained with (``args.yml`` and the yml entry's ``env_kwargs``)."""
     model_path: Path
@@ -93,8 +89,7 @@ class TrainedPolicy(RunPolicy):
         model = load_on_copy(algo, path, hp, env_id, env_kwargs)
         if normalizer is not None:
             read_normalizer(normalizer)
-        kwargs = MappingProxyType(env_kwargs)
-        return cls(run_dir, algo, env_id, entry, kwargs, path, normalizer, model)
+        return cls(run_dir, algo, env_id, MappingProxyType(env_kwargs), path, normalizer, model)
 
     def strokes(self, conditions: Sequence[float]) -> np.ndarray:
         """The deterministic normalised strokes (n, 28) in [-1, 1] at ``conditions``."""

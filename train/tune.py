@@ -1,10 +1,9 @@
 """``python -m train.tune``: tune PPO's or SAC's hyperparameters for a policy over an envelope.
 
-Optuna's TPE sampler (seeded) proposes overrides of the shipped zoo entry from
-:data:`SEARCH_SPACES`, the first trial being the shipped entry; each trial trains one policy by
-the same code as ``python -m train`` and its value is the median normalised score of its
-strokes at the reference grid's *training* conditions. The study's files, its checks and the
-shipped results: docs/training.md, "Tuning for the envelope". Needs the ``tune`` extra.
+Optuna's seeded TPE proposes overrides of the shipped zoo entry (the first trial) from
+:data:`SEARCH_SPACES`; a trial trains one policy as ``python -m train`` does, valued by the
+median normalised score of its strokes at the reference grid's *training* conditions
+(docs/training.md, "Tuning for the envelope"). Needs the ``tune`` extra.
 """
 
 from __future__ import annotations
@@ -28,7 +27,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-from train.entry import exit_on_bad_environment
+from train.entry import command, exit_on_bad_environment, option
 
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.tune"):
@@ -37,7 +36,6 @@ from tandem_env.envs.reference import score_strokes, training_conditions
 from tandem_env.envs.registration import check_env_id, condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
 from tandem_env.physics.checks import is_integer, is_real
-from train.cli import command, option
 from train.config import TrainConfig, check_seed, load_entry
 
 #: Per algorithm and parameter: what Optuna proposes (kind, choices or (low, high): "log" and
@@ -196,11 +194,6 @@ def best_entry_text(config: TuneConfig, study: Any) -> str:
     return "\n".join(head) + "\n" + body
 
 
-#: The Optuna errors replaying a damaged journal raises (it asserts on unknown operations and
-#: looks up studies and trials by id).
-_REPLAY_ERRORS = (AssertionError, KeyError, IndexError, TypeError, ValueError, AttributeError)
-
-
 def _check_journal_lines(path: Path) -> None:
     """ValueError naming the journal unless every line is a JSON object with an integer
     ``op_code`` ending in a newline (Optuna would append to a line a kill cut short)."""
@@ -271,7 +264,9 @@ def open_study(config: TuneConfig) -> Any:
         )
         names = set(optuna.get_all_study_names(storage))
         trials = optuna.load_study(study_name=name, storage=storage).trials if name in names else []
-    except _REPLAY_ERRORS as error:
+    # what replaying a damaged journal raises (Optuna asserts on unknown operations, looks up
+    # studies and trials by id)
+    except (AssertionError, KeyError, IndexError, TypeError, ValueError, AttributeError) as error:
         raise ValueError(
             f"{journal}: its operations do not replay ({type(error).__name__}: damaged or "
             "edited); it is left untouched. Allowed: the journal python -m train.tune wrote, "

@@ -14,7 +14,7 @@ import torch
 import tandem_env  # noqa: F401 - registers the ids
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from train.config import load_entry, resolve_hyperparams
-from train.run import torch_threads
+from train.run import make_training_env, torch_threads
 from train.run_folder import RunLayout
 from train.saved import (
     ALGORITHMS,
@@ -24,7 +24,6 @@ from train.saved import (
     load_replay_buffer,
     save_checkpoint,
 )
-from train.vec import make_training_env
 
 OVERRIDES = {
     "ppo": {"n_steps": 4, "batch_size": 64},

@@ -16,10 +16,9 @@ import yaml
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from train.__main__ import build_parser, main, parse_config
 from train.config import TrainConfig
-from train.run import train
+from train.run import MONITOR_KEYWORDS, train
 from train.run_folder import RunLayout
 from train.saved import read_normalizer
-from train.vec import MONITOR_KEYWORDS
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -294,11 +293,11 @@ def test_a_plugged_in_task_trains_without_a_patch(tmp_path: Path) -> None:
 )  # fmt: skip
 def test_each_command_line_is_its_dataclass(name: str) -> None:
     """Every option of train's other commands is one field of its options' dataclass, its help
-    that field's docstring (train.cli), and nothing else is an option."""
+    that field's docstring (train.entry), and nothing else is an option."""
     import importlib
 
-    from train.cli import build_parser as fields_parser
-    from train.cli import field_docs
+    from train.entry import build_parser as fields_parser
+    from train.entry import field_docs
 
     module, _, cls_name = name.partition(":")
     cls = getattr(importlib.import_module(module), cls_name)

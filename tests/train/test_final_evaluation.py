@@ -7,7 +7,7 @@ import numpy as np
 
 import tandem_env  # noqa: F401 - registers the ids
 from tandem_env.envs.sb3 import make_sb3_vec_env
-from train.vec import evaluate_deterministic
+from train.run import evaluate_deterministic
 
 
 class ConstantPolicy:

@@ -9,7 +9,7 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from train.vec import StrokeRecorder
+from train.run import StrokeRecorder
 
 
 class Scripted(gym.Env):
