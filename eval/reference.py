@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+import tandem_env
+from agents import verify
 from agents.harness import PreparedJob, prepare
 from agents.jobs import Continuation, Job
 from agents.progress import CommandProgress, Phase
@@ -31,12 +33,12 @@ from agents.selection import best_index
 from agents.store import RecordStore, read_record_files
 from agents.tasks import get_task, task_of
 from eval.optimize import add_run_arguments, run_options, run_reporting
-from eval.reference_candidates import candidates
 from eval.studies.report import table_head, table_row
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
     config_fingerprint,
+    problem_fingerprint,
     reference_path,
 )
 from tandem_env.envs.registration import config_class
@@ -60,15 +62,24 @@ PRESET = "reference"
 #: Where the records and the figure go by default.
 DEFAULT_OUT = Path("results") / "reference"
 
+PointKey = tuple[str, str, str, float]
+"""(env id, objective, planform, condition) of a grid point."""
+Jobs = Mapping[PointKey, Sequence[PreparedJob]]
+"""A point's jobs (one per seed) per grid point, as :func:`plan` makes them."""
+Found = Mapping[PointKey, Sequence[Record]]
+"""Records per grid point."""
+Rounds = Sequence[Mapping[PointKey, Job]]
+"""The continuation rounds' jobs, a job per point each."""
+
 
 def plan(
     seeds: Sequence[int] = SEEDS,
     budgets: Mapping[str, int] = BUDGETS,
     grid: Mapping[str, tuple[tuple[str, ...], tuple[float, ...]]] = REFERENCE_GRID,
     env_kwargs: Mapping[str, Any] | None = None,
-) -> dict[tuple[str, str, str, float], list[PreparedJob]]:
+) -> dict[PointKey, list[PreparedJob]]:
     """The jobs of the table: per (env id, objective, planform, condition), one per seed."""
-    jobs: dict[tuple[str, str, str, float], list[PreparedJob]] = {}
+    jobs: dict[PointKey, list[PreparedJob]] = {}
     for env_id, (objectives, conditions) in grid.items():
         task = get_task(task_of(env_id))
         for objective, planform, condition in product(objectives, PLANFORMS, conditions):
@@ -84,9 +95,6 @@ def plan(
             )
     return jobs
 
-
-PointKey = tuple[str, str, str, float]
-"""(env id, objective, planform, condition) of a grid point."""
 
 #: Tasks whose feasible set grows with the condition: the available power only caps P/m, so a
 #: stroke that flies at P_avail flies, with the same forces, at every higher P_avail, and a
@@ -116,10 +124,7 @@ def _best(records: Sequence[Record], env_id: str, objective: str) -> Record:
 
 
 def continuation(
-    jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    found: Mapping[PointKey, Sequence[Record]] | None,
-    index: int = 0,
-    rule: Continuation = CONTINUATION,
+    jobs: Jobs, found: Found | None, index: int = 0, rule: Continuation = CONTINUATION
 ) -> dict[PointKey, Job]:
     """Continuation round ``index`` (0, 1, ...): per point, one job of ``rule`` warm-started from
     the best strokes ``found`` at this point, its grid neighbours and, for a task in
@@ -148,7 +153,7 @@ class ReferencePlan:
     ``rule`` until it stops. Running, it keeps the rounds' jobs (:attr:`rounds`) and gains
     (:attr:`convergence`), said on stderr unless ``quiet``."""
 
-    jobs: Mapping[PointKey, Sequence[PreparedJob]]
+    jobs: Jobs
     rule: Continuation = CONTINUATION
     quiet: bool = True
     rounds: list[dict[PointKey, Job]] = field(default_factory=list, init=False)
@@ -188,7 +193,7 @@ class ReferencePlan:
                 return
 
 
-def _pool(found: Mapping[PointKey, Sequence[Record]], key: PointKey) -> list[Record]:
+def _pool(found: Found, key: PointKey) -> list[Record]:
     """The strokes that compete for ``key``: its own and, for a task in :data:`NESTED_TASKS`,
     every stroke found at a lower or equal condition for any objective (same planform)."""
     env_id, _, planform, condition = key
@@ -202,7 +207,7 @@ def _pool(found: Mapping[PointKey, Sequence[Record]], key: PointKey) -> list[Rec
     ]
 
 
-def best_objectives(found: Mapping[PointKey, Sequence[Record]]) -> dict[PointKey, float]:
+def best_objectives(found: Found) -> dict[PointKey, float]:
     """Each point's best feasible objective among what competes for it (NaN: none flies)."""
     best = {key: _best(_pool(found, key), key[0], key[1]) for key in found}
     return {k: _value(b, k[0], k[1]) if b.feasible else float("nan") for k, b in best.items()}
@@ -230,7 +235,7 @@ def _point(
     key: PointKey,
     search: Sequence[Record],
     rounds: Sequence[Record],
-    found: Mapping[PointKey, Sequence[Record]],
+    found: Found,
     candidates: Sequence[Record] = (),
 ) -> dict[str, Any]:
     """One grid point: the best stroke competing for it (:func:`_pool`)."""
@@ -265,9 +270,7 @@ def _point(
 
 
 def gather(
-    jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    rounds: Sequence[Mapping[PointKey, Job]],
-    records: Mapping[str, Record],
+    jobs: Jobs, rounds: Rounds, records: Mapping[str, Record]
 ) -> dict[PointKey, list[Record]]:
     """Every record of each point: its seeds' then its continuation rounds'."""
     return {
@@ -277,11 +280,11 @@ def gather(
 
 
 def build_table(
-    jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    rounds: Sequence[Mapping[PointKey, Job]],
+    jobs: Jobs,
+    rounds: Rounds,
     records: Mapping[str, Record],
     provenance: Mapping[str, Any],
-    candidates: Mapping[PointKey, Sequence[Record]] | None = None,
+    candidates: Found | None = None,
 ) -> dict[str, Any]:
     """The reference table (format :data:`REFERENCE_FORMAT`) from every phase's records and
     the ``candidates`` (:func:`candidates`) competing beside them."""
@@ -317,6 +320,50 @@ def build_table(
             for (env_id, objective, planform), points in series.items()
         ],
     }
+
+
+def candidates(records: Iterable[Record], jobs: Jobs) -> dict[PointKey, list[Record]]:
+    """Strokes of other runs (``--candidates``, docs/reference.md; any method: a policy's, a
+    study's) per grid point they compete for: a feasible record of the table's env at a grid
+    condition, of the problem of one of the table's series there (its fingerprint: the same
+    model, insect and planform), competes for every objective of that planform. It must be this
+    model's (its revision, :attr:`~agents.records.Record.model`), its stroke must replay,
+    through the env, to its record (:func:`agents.verify.refuted`, as every reused record does)
+    and fly; any other record is refused (ValueError)."""
+    fingerprints = {
+        key: problem_fingerprint(
+            config_class(key[0]).from_kwargs(**dict(prepared[0].job.env_kwargs))
+        )
+        for key, prepared in jobs.items()
+    }
+    kept: dict[PointKey, list[Record]] = {}
+    revision = tandem_env.physics.MODEL_REVISION
+    for record in records:
+        env_id, condition = record.env_id, record.job.condition
+        mine = config_fingerprint(config_class(env_id), record.results["env"])
+        keys = [k for k in jobs if (k[0], k[3]) == (env_id, condition) and fingerprints[k] == mine]
+        why = (
+            f"it was made by model revision {record.model}, not this model's {revision} "
+            "(tandem_env.physics.MODEL_REVISION): rerun it"
+            if record.model != revision
+            else "it does not fly"
+            if not record.feasible
+            else f"no series of the table at {env_id} {condition:g} with its model and insect"
+            if not keys
+            else None
+        )
+        if why is None and (
+            refuted := verify.refuted({record.key: record}, {record.key: record.job})
+        ):
+            why = f"its stroke does not replay to its record ({refuted[record.key]})"
+        if why is not None:
+            raise ValueError(
+                f"candidate record {record.key} ({record.job.label()}): {why}; allowed: a "
+                "feasible record of the table's env and model at a grid condition"
+            )
+        for key in keys:
+            kept.setdefault(key, []).append(record)
+    return kept
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
