@@ -178,7 +178,6 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
     """One :class:`Row` per task/objective/condition and configuration."""
     rows = []
     for key, series in group(records).items():
-        task, objective_name, condition, value, unit = key
         distinct = distinct_settings(list(series))
         for skey, runs in series.items():
             method, budget, pairs = skey
@@ -192,11 +191,7 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                 median_feasible = float(np.median(objective[feasible]))
             rows.append(
                 Row(
-                    task=task,
-                    objective_name=objective_name,
-                    condition=condition,
-                    condition_value=value,
-                    condition_unit=unit,
+                    *key,  # task, objective name, condition, its value and unit
                     method=method,
                     budget=budget,
                     settings="; ".join(f"{k}={v}" for k, v in pairs),

@@ -231,8 +231,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "
         "objective; one that also changes the model runs with a warning)",
     )
-    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 
 def add_insect_argument(parser: argparse.ArgumentParser) -> None:
@@ -247,8 +246,8 @@ def add_insect_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-#: The options of every command that runs jobs (optimize, study, reference, speed-change): the
-#: argparse keywords of each (``--no-cache`` sets ``args.cache``).
+#: The options of every command that runs jobs (optimize, study, reference, speed-change,
+#: crosscheck): the argparse keywords of each (``--no-cache`` sets ``args.cache``).
 RUN_OPTIONS: dict[str, dict[str, Any]] = {
     "--backend": {
         "choices": BACKENDS,
@@ -280,6 +279,7 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         "the new records replace the old ones (each file written atomically), said in the "
         "last line",
     },
+    "--quiet": {"action": "store_true", "help": "no progress display"},
 }
 
 

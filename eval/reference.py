@@ -388,8 +388,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="record files or folders of other runs (e.g. eval optimize --out) whose strokes "
         "compete for the table's points, with their provenance (docs/reference.md)",
     )
-    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 
 def provenance(

@@ -56,14 +56,7 @@ STEADY_GRID: tuple[float, ...] = tuple(
     float(v) for v in np.arange(LEVEL_FLIGHT_ENVELOPE[0], LEVEL_FLIGHT_ENVELOPE[1] + 1e-9, 0.25)
 )
 #: The reward's parts, summed per episode: the ``info["reward_<term>"]`` terms and the penalty.
-REWARD_PARTS: tuple[str, ...] = (
-    "progress",
-    "speed",
-    "altitude",
-    "energy",
-    "termination",
-    "penalty",
-)
+REWARD_PARTS: tuple[str, ...] = tuple("progress speed altitude energy termination penalty".split())
 #: Relative speed error counted as "at the target" [-].
 TARGET_WITHIN = 0.05
 FIRST_SEED = 1000
@@ -322,11 +315,10 @@ def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str,
     out = []
     for policy in dict.fromkeys(e["policy"] for e in episodes):
         rows = [e for e in episodes if e["policy"] == policy]
-        numbers = [key for key in rows[0] if key != "policy"]
-        values = {key: np.array([r[key] for r in rows], np.float64) for key in numbers}
-        reached = values["time_to_target_s"][np.isfinite(values["time_to_target_s"])]
-        per_metre = values["energy_per_metre_mJ_m"]
-        per_metre = per_metre[np.isfinite(per_metre)]
+        values = {k: np.array([r[k] for r in rows], np.float64) for k in rows[0] if k != "policy"}
+        reached, per_metre = (
+            v[np.isfinite(v)] for v in (values["time_to_target_s"], values["energy_per_metre_mJ_m"])
+        )
         mean = {key: float(v.mean()) for key, v in values.items()}
         out.append(
             {
@@ -466,8 +458,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     from eval.optimize import add_run_arguments  # eval.optimize imports the studies: not here
 
-    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
-    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 
 def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:

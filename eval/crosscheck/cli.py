@@ -207,9 +207,8 @@ OPTIONS: dict[str, dict[str, Any]] = {
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     for flag, keywords in OPTIONS.items():
         parser.add_argument(flag, **keywords)
-    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder ({DEFAULT_OUT})")
-    parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resolution]]:
