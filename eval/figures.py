@@ -101,20 +101,14 @@ def method_color(spec: str) -> str:
     return PALETTE[zlib.crc32(spec.encode()) % len(PALETTE)]
 
 
-def variant_color(base: str, variant: int = 0) -> str:
-    """The hue of variant ``variant`` of a series whose variant 0 is ``base``."""
-    if not variant:
-        return base
-    start = LINE_HUES.index(base) if base in LINE_HUES else 0
-    return LINE_HUES[(start + VARIANT_HUE_STEP * variant) % len(LINE_HUES)]
-
-
 def series_style(method: str, variant: int = 0) -> dict[str, Any]:
-    """Colour (:func:`variant_color`) and line style of a method's variant."""
-    return {
-        "color": variant_color(method_color(method), variant),
-        "ls": VARIANT_LINES[variant % len(VARIANT_LINES)],
-    }
+    """Colour and line style of a method's variant: variant 0 in the method's colour, variant k
+    :data:`VARIANT_HUE_STEP` · k steps along :data:`LINE_HUES` from it."""
+    color = method_color(method)
+    if variant:
+        start = LINE_HUES.index(color) if color in LINE_HUES else 0
+        color = LINE_HUES[(start + VARIANT_HUE_STEP * variant) % len(LINE_HUES)]
+    return {"color": color, "ls": VARIANT_LINES[variant % len(VARIANT_LINES)]}
 
 
 def figure_path(folder: Path, stem: str, fmt: str = FORMATS[0]) -> Path:

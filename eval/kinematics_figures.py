@@ -37,14 +37,6 @@ def _trace_style(trace: Trace) -> dict:
     return {"lw": 2.0, "alpha": 1.0} if trace.best else {"lw": 0.8, "alpha": 0.35}
 
 
-def _seed_color(trace: Trace, i: int) -> str:
-    """Black for the best seed, else a palette colour fixed by the seed in the label."""
-    if trace.best:
-        return "k"
-    digits = "".join(c for c in trace.label.split("(")[0] if c.isdigit())
-    return PALETTE[(int(digits) if digits else i) % len(PALETTE)]
-
-
 #: Where along the cycle the tip paths' direction arrows sit [t/T]: one per quarter, so a
 #: figure-of-eight shows its direction on both loops.
 ARROW_PHASES: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
@@ -82,7 +74,9 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
     for ax, wing in zip(axes, ("fore", "hind"), strict=True):
         for i, trace in enumerate(traces):
             tip = getattr(trace, wing)["tip_path"]
-            color = _seed_color(trace, i)
+            # black for the best seed, else a palette colour fixed by the seed in the label
+            digits = "".join(c for c in trace.label.split("(")[0] if c.isdigit())
+            color = "k" if trace.best else PALETTE[(int(digits) if digits else i) % len(PALETTE)]
             loop = np.vstack([tip, tip[:1]])  # one period: the path closes on itself
             style = {"color": color, "label": trace.label, **_trace_style(trace)}
             ax.plot(loop[:, 0], loop[:, 2], "-", **style)

@@ -128,16 +128,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="gif",
         help="animation format (default gif; mp4 needs ffmpeg)",
     )
-    parser.add_argument(
-        "--frames",
-        type=int,
-        default=DEFAULT_FRAMES,
-        metavar="N",
-        help=f"frames per cycle, 8 to 720 (default {DEFAULT_FRAMES})",
-    )
-    parser.add_argument(
-        "--fps", type=int, default=DEFAULT_FPS, help=f"frames per second (default {DEFAULT_FPS})"
-    )
+    for flag, default, metavar, text in (
+        ("--frames", DEFAULT_FRAMES, "N", f"frames per cycle, 8 to 720 (default {DEFAULT_FRAMES})"),
+        ("--fps", DEFAULT_FPS, None, f"frames per second (default {DEFAULT_FPS})"),
+    ):
+        parser.add_argument(flag, type=int, default=default, metavar=metavar, help=text)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

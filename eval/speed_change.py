@@ -415,22 +415,19 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--episodes", type=int, default=32, help=f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"
-    )
-    parser.add_argument(
-        "--first-seed", type=int, default=FIRST_SEED, help=f"first evaluation seed ({FIRST_SEED})"
-    )
+    for flag, kind, default, text in (
+        ("--episodes", int, 32, f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"),
+        ("--first-seed", int, FIRST_SEED, f"first evaluation seed ({FIRST_SEED})"),
+        ("--optima-budget", int, 12000, "model evaluations per level-flight optimum (12000)"),
+        ("--out", Path, Path("results/speed-change"), "output folder"),
+        ("--figure", Path, None, "PNG of one episode for every policy"),
+        ("--figure-episode", int, 0, "the evaluation episode the figure shows (index, default 0)"),
+    ):
+        parser.add_argument(flag, type=kind, default=default, help=text)
     parser.add_argument(
         "--optimiser",
         default=DEFAULT_OPTIMISER,
         help=f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})",
-    )
-    parser.add_argument(
-        "--optima-budget",
-        type=int,
-        default=12000,
-        help="model evaluations per level-flight optimum (12000)",
     )
     parser.add_argument(
         "--grid",
@@ -445,16 +442,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         parser.add_argument(f"--{algo}", nargs="+", default=[], metavar="RUN_DIR", help=text)
     parser.add_argument(
         "--model", choices=("final", "best"), default="final", help="which saved model (final)"
-    )
-    parser.add_argument(
-        "--out", type=Path, default=Path("results/speed-change"), help="output folder"
-    )
-    parser.add_argument("--figure", type=Path, help="PNG of one episode for every policy")
-    parser.add_argument(
-        "--figure-episode",
-        type=int,
-        default=0,
-        help="which evaluation episode the figure shows (index, default 0)",
     )
     from eval.optimize import add_run_arguments  # eval.optimize imports the studies: not here
 
