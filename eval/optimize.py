@@ -46,13 +46,9 @@ def _tasks_text(width: int = 92) -> str:
         what = f"{condition.label} [{condition.unit}] ({low:g}-{high:g})"
         text = f"{task.condition_flag} {condition.metavar}  {what}; {task.declaration.summary}"
         if objectives.keyword is not None:
-            choices = ", ".join(objectives.metrics)
-            text += f" --objective: {choices} (default {objectives.default})."
-        lines.append(
-            textwrap.fill(
-                text, width, initial_indent=f"  {task.name:<11} ", subsequent_indent=" " * 14
-            )
-        )
+            text += f" --objective: {', '.join(objectives.metrics)} (default {objectives.default})."
+        indent = f"  {task.name:<11} "
+        lines.append(textwrap.fill(text, width, initial_indent=indent, subsequent_indent=" " * 14))
     return "\n".join(lines)
 
 
@@ -97,9 +93,6 @@ examples:
 
 T = TypeVar("T")
 
-#: What an interrupted run says (optimize and study).
-INTERRUPTED = "the finished records are stored; the same command resumes from them"
-
 
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
     """``call()`` (a run of jobs: optimize, study, reference or speed-change), or the exit
@@ -116,7 +109,8 @@ def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T |
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        resumes = "the finished records are stored; the same command resumes from them"
+        print(f"{parser.prog}: interrupted; {resumes}", file=sys.stderr)
         return 130
 
 
@@ -125,11 +119,9 @@ def _check_reading_applies(
 ) -> None:
     """A reading's horizontal objective with no horizontal objective here to replace: refused
     if it is all the reading changes, a warning if its model options still apply."""
-    if reading.horizontal_objective == "horizontal":
-        return
     objectives = task.declared_objectives
     given = objective if objective is not None else objectives.default
-    if given == "horizontal":
+    if "horizontal" in (reading.horizontal_objective, given):
         return
     where = f"--task {task.name}" + (f" --objective {given}" if objectives.keyword else "")
     what = (
@@ -354,8 +346,7 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
             _check_reading_applies(args.reading, reading, task, objective)
             if objective is not None:
                 objective = reading.objective(objective)
-        clash = sorted(set(env_kwargs) & set(reading_kwargs))
-        if clash:
+        if clash := sorted(set(env_kwargs) & set(reading_kwargs)):
             raise ValueError(
                 f"--reading {args.reading} sets {clash}; give them there or in "
                 "--env-kwargs, not both"

@@ -96,9 +96,10 @@ def rows(
     model = {case: ours(case, insect) for case in dict.fromkeys(p.case for p in planned)}
     for plan in planned:
         mine = model[plan.case]
-        alone = {pair: results[plan.runs[pair]][pair] for pair in PAIRS}
+        alone = {pair: results[plan.runs[pair]][pair]["vertical"] for pair in PAIRS}
         for index, lag in enumerate(plan.case.lags):
             tandem = results[plan.runs[f"tandem {lag:g}"]]
+            both = {pair: tandem[pair]["vertical"] for pair in PAIRS}
             row: dict[str, Any] = {
                 "stroke_changes": stroke_changes(plan.case),
                 "speed_m_s": plan.case.speed,
@@ -112,12 +113,9 @@ def rows(
                 "clearance_mm": round(1e3 * plan.clearance[lag]["pairs"], 2),
             }
             for pair in PAIRS:
-                row[f"uvlm_{pair}_alone_mN"] = 1e3 * alone[pair]["vertical"]
-                row[f"uvlm_{pair}_tandem_mN"] = 1e3 * tandem[pair]["vertical"]
-            for pair in PAIRS:
-                row[f"uvlm_{pair}_change_pct"] = _percent(
-                    tandem[pair]["vertical"], alone[pair]["vertical"]
-                )
+                row[f"uvlm_{pair}_alone_mN"] = 1e3 * alone[pair]
+                row[f"uvlm_{pair}_tandem_mN"] = 1e3 * both[pair]
+            row |= {f"uvlm_{p}_change_pct": _percent(both[p], alone[p]) for p in PAIRS}
             row |= model_cells(mine, index)
             row["uvlm_tandem_wall_s"] = round(tandem["wall_time"], 1)
             out.append(row)
