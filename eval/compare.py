@@ -131,12 +131,11 @@ def distinct_settings(keys: Sequence[SeriesKey]) -> dict[SeriesKey, str]:
     for key, m in zip(keys, maps, strict=True):
         # method settings are compared among the series of the same method only
         peers = [p for k, p in zip(keys, maps, strict=True) if k[0] == key[0]]
-        names = sorted({n for p in maps for n in p if not n.startswith("method.")})
-        names += sorted({n for p in peers for n in p if n.startswith("method.")})
         varying = [
             n
-            for n in names
-            if len({p.get(n) for p in (peers if n.startswith("method.") else maps)}) > 1
+            for among, method in ((maps, False), (peers, True))
+            for n in sorted({n for p in among for n in p if n.startswith("method.") == method})
+            if len({p.get(n) for p in among}) > 1
         ]
         parts = [f"budget {key[1]}"] if len(budgets) > 1 else []
         parts += [f"{n}={m.get(n, 'default')}" for n in varying]

@@ -48,14 +48,9 @@ LINE_HUES: tuple[str, ...] = PALETTE[:6]
 #: a hue with each other.
 VARIANT_HUE_STEP = 4
 #: Readable names of the method families for legends.
-METHOD_NAMES: dict[str, str] = {
-    "cmaes": "CMA-ES",
-    "pso": "PSO",
-    "random": "random search",
-    "policy": "policy",
-    "ppo": "PPO",
-    "sac": "SAC",
-}
+METHOD_NAMES: dict[str, str] = dict(
+    cmaes="CMA-ES", pso="PSO", random="random search", policy="policy", ppo="PPO", sac="SAC"
+)
 #: Fixed colour of each method family (the spec's name before ':'), the palette in this order;
 #: other specs get one by checksum, so no colour depends on the figure's other series.
 METHOD_COLORS: dict[str, str] = dict(zip(METHOD_NAMES, PALETTE, strict=False))

@@ -41,16 +41,9 @@ def _trace_style(trace: Trace) -> dict:
 #: figure-of-eight shows its direction on both loops.
 ARROW_PHASES: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
 #: The arrowheads: filled black with a white rim, above every path, 16 pt long.
-ARROW_STYLE: dict = {
-    "arrowstyle": "-|>",
-    "mutation_scale": 16,
-    "fc": "k",
-    "ec": "white",
-    "lw": 0.8,
-    "shrinkA": 0,
-    "shrinkB": 0,
-    "zorder": 6,
-}
+ARROW_STYLE: dict = dict(
+    arrowstyle="-|>", mutation_scale=16, fc="k", ec="white", lw=0.8, shrinkA=0, shrinkB=0, zorder=6
+)
 START_LABEL = "best seed at t = 0 (arrows: direction of travel)"
 
 

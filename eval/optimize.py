@@ -284,12 +284,9 @@ def add_run_arguments(parser: argparse.ArgumentParser, *flags: str) -> None:
 def run_options(args: argparse.Namespace) -> dict[str, Any]:
     """The runner's keywords (``run_jobs``, ``run_plan``) of ``--scheduler``, ``--no-cache``,
     ``--rerun`` and ``--quiet`` as given."""
-    return {
-        "scheduler": args.scheduler,
-        "cache": args.cache,
-        "rerun": args.rerun,
-        "progress": not args.quiet,
-    }
+    return dict(
+        scheduler=args.scheduler, cache=args.cache, rerun=args.rerun, progress=not args.quiet
+    )
 
 
 def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[PreparedJob]:

@@ -485,12 +485,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 
 # Okabe-Ito colours, one per objective (readable in colour-blind vision and in grey).
-_COLOURS = {
-    "efficiency": "#0072B2",
-    "vertical": "#0072B2",
-    "horizontal": "#D55E00",
-    "resultant": "#009E73",
-}
+_COLOURS = dict(efficiency="#0072B2", vertical="#0072B2", horizontal="#D55E00", resultant="#009E73")
 _LINES = {"tear-drop": "-", "real": "--"}
 
 

@@ -184,11 +184,7 @@ OPTIONS: dict[str, dict[str, Any]] = {
         "help": "change base-case stroke parameters, e.g. fore_sweep_amplitude=40 (Table 4 units)",
     },
     "--planform": {"choices": PLANFORMS, "default": "tear-drop", "help": "both wings' planform"},
-    "--steps-per-beat": {
-        "type": int,
-        "metavar": "N",
-        "help": "solver time steps per beat (default 48)",
-    },
+    "--steps-per-beat": dict(type=int, metavar="N", help="solver time steps per beat (default 48)"),
     "--panels": {"metavar": "CxS", "help": "chordwise x spanwise panels per wing (default 4x8)"},
     "--beats": {"type": int, "metavar": "N", "help": "beats run; loads from the last (default 3)"},
     "--wake": {
