@@ -203,15 +203,8 @@ def legend(
         if below
         else {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
     )
-    ax.legend(
-        handles,
-        labels,
-        **where,
-        fontsize=7,
-        frameon=False,
-        handler_map={tuple: HandlerTuple(ndivide=1)},
-        **kwargs,
-    )
+    handler = {tuple: HandlerTuple(ndivide=1)}
+    ax.legend(handles, labels, **where, fontsize=7, frameon=False, handler_map=handler, **kwargs)
 
 
 def text_entry(text: str) -> tuple[Any, str]:

@@ -13,7 +13,7 @@ from typing import Any
 from agents.store import RECORDS_DIR
 from eval.optimize import add_run_arguments, run_options
 from tandem_env.io.files import FolderLock, output_directory
-from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
+from tandem_env.physics import DRAGONFLY, PLANFORMS, SPEED_LIMITS, Dragonfly
 
 from .case import (
     MIN_CLEARANCE,
@@ -242,8 +242,6 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
     cases = [point.case(insect, stroke, lags) for point in grid.points]
     if where:
-        from tandem_env.physics import SPEED_LIMITS
-
         case = replace(cases[0], **where)
         if not SPEED_LIMITS[0] < case.speed <= SPEED_LIMITS[1]:
             raise ValueError(

@@ -148,11 +148,8 @@ def solve(run: Run) -> dict[str, Any]:
         # The project runs numba on its work-queue threading layer on purpose
         # (tandem_env/physics/__init__.py); the solver's advice to change it is not for here.
         warnings.filterwarnings("ignore", message=".*workqueue threading layer.*")
-        solver.run(
-            prescribed_wake=run.wake == "prescribed",
-            calculate_streamlines=False,
-            show_progress=False,
-        )
+        prescribed = run.wake == "prescribed"
+        solver.run(prescribed_wake=prescribed, calculate_streamlines=False, show_progress=False)
     to_geometry = np.asarray(operating_point.T_pas_W_CgP1_to_GP1_CgP1)[:3, :3]
     lateral = np.array([0.0, 1.0, 0.0])
     out: dict[str, Any] = {}
