@@ -282,17 +282,9 @@ def load_case(path: str | Path) -> MeasuredCase:
         model_options = ModelOptions(**options)
     except (TypeError, ValueError) as exc:
         raise SpecError(f"options: {exc}") from None
-    return MeasuredCase(
-        name=path.stem,
-        description=str(spec.get("description", "")),
-        fore=wings[0],
-        hind=wings[1],
-        speed=speed,
-        flight_path_angle=math.radians(gamma) if degrees else gamma,
-        available_power=power,
-        insect=insect,
-        options=model_options,
-    )
+    gamma = math.radians(gamma) if degrees else gamma
+    description = str(spec.get("description", ""))
+    return MeasuredCase(path.stem, description, *wings, speed, gamma, power, insect, model_options)
 
 
 def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, float]]:

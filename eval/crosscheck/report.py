@@ -269,7 +269,6 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             right.axis("off")
     # One legend above the panels, off the data (every panel has the same series).
     handles, labels = axes[0][0].get_legend_handles_labels()
-    legend_height = 0.5  # [inch]
     fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - legend_height / fig.get_figheight()))
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.5 / fig.get_figheight()))  # legend: 0.5 inch
     return save(fig, out_dir / FIGURE, crop=False)
