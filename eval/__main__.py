@@ -90,9 +90,8 @@ def _script(module_name: str) -> Callable[[], int]:
     @command_line
     def script() -> int:
         module = importlib.import_module(module_name)
-        parser = argparse.ArgumentParser(
-            prog=_prog(f"python -m eval {module.NAME}"), **_texts(module)
-        )
+        prog = _prog(f"python -m eval {module.NAME}")
+        parser = argparse.ArgumentParser(prog=prog, **_texts(module))
         module.add_arguments(parser)
         args = parser.parse_args(sys.argv[1:])
         with warnings_as_lines():

@@ -373,18 +373,10 @@ def default_out(directories: Sequence[str | Path]) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("dirs", nargs="+", metavar="DIR", help="directories (or files) of records")
-    parser.add_argument(
-        "--out",
-        default=None,
-        metavar="OUT",
-        help=f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)",
-    )
-    parser.add_argument(
-        "--format",
-        choices=FORMATS,
-        default=FORMATS[0],
-        help=f"file format of the convergence figure (default {FORMATS[0]})",
-    )
+    text = f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)"
+    parser.add_argument("--out", default=None, metavar="OUT", help=text)
+    text = f"file format of the convergence figure (default {FORMATS[0]})"
+    parser.add_argument("--format", choices=FORMATS, default=FORMATS[0], help=text)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

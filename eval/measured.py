@@ -402,11 +402,8 @@ def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("kinematics", metavar="KINEMATICS.yaml", help="the kinematics file")
-    parser.add_argument(
-        "--out",
-        default=str(DEFAULT_OUT),
-        help=f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})",
-    )
+    text = f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})"
+    parser.add_argument("--out", default=str(DEFAULT_OUT), help=text)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -170,24 +170,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             "ppo, sac and policy come from train/)"
         ),
     )
-    parser.add_argument(
-        "--budget",
-        required=True,
-        type=int,
-        metavar="N",
-        help=f"model evaluations per seed (1 to {MAX_BUDGET:,})",
-    )
+    text = f"model evaluations per seed (1 to {MAX_BUDGET:,})"
+    parser.add_argument("--budget", required=True, type=int, metavar="N", help=text)
     parser.add_argument(
         "--seeds", required=True, type=int, nargs="+", metavar="SEED", help="one run per seed"
     )
     parser.add_argument("--out", required=True, metavar="DIR", help="directory for the records")
-    parser.add_argument(
-        "--swarm-size",
-        type=int,
-        metavar="N",
-        help=f"strokes per iteration: PSO particles / random-search batch (default 40, at most "
-        f"{MAX_BATCH:,})",
-    )
+    text = "strokes per iteration: PSO particles / random-search batch (default 40, at most"
+    parser.add_argument("--swarm-size", type=int, metavar="N", help=f"{text} {MAX_BATCH:,})")
     values = "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
     pairs = {
         "--method-config": "method settings, e.g. velocity_clamp=0.2 boundary=reflect inertia=linear-decreasing",
@@ -379,10 +369,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if "insect" in jobs[0].env_kwargs:
             print(f"insect: {describe_insect(jobs[0].env_kwargs['insect'])}", file=sys.stderr)
     # --out as given: an empty one is the runner's to refuse, not the current folder
-    summary = run_reporting(
-        parser,
-        lambda: run_jobs(jobs, args.out, **run_options(args), summary_csv=True),
-    )
+    options = run_options(args)
+    summary = run_reporting(parser, lambda: run_jobs(jobs, args.out, **options, summary_csv=True))
     if isinstance(summary, int):
         return summary
     for record in (summary.records[p.job.key] for p in jobs):

@@ -367,18 +367,10 @@ def candidates(records: Iterable[Record], jobs: Jobs) -> dict[PointKey, list[Rec
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--out",
-        type=Path,
-        default=DEFAULT_OUT,
-        help=f"the optimisations' records, figure and table (default {DEFAULT_OUT})",
-    )
-    parser.add_argument(
-        "--table",
-        type=Path,
-        default=None,
-        help="where the table goes (default: the packaged tandem_env/data/reference_optima.json)",
-    )
+    text = f"the optimisations' records, figure and table (default {DEFAULT_OUT})"
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=text)
+    text = "where the table goes (default: the packaged tandem_env/data/reference_optima.json)"
+    parser.add_argument("--table", type=Path, default=None, help=text)
     parser.add_argument(
         "--candidates",
         type=Path,

@@ -122,12 +122,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", default=None, metavar="DIR", help="output folder (default: show/ beside records/)"
     )
-    parser.add_argument(
-        "--format",
-        choices=tuple(ANIMATION_FORMATS),
-        default="gif",
-        help="animation format (default gif; mp4 needs ffmpeg)",
-    )
+    text = "animation format (default gif; mp4 needs ffmpeg)"
+    parser.add_argument("--format", choices=tuple(ANIMATION_FORMATS), default="gif", help=text)
     for flag, default, metavar, text in (
         ("--frames", DEFAULT_FRAMES, "N", f"frames per cycle, 8 to 720 (default {DEFAULT_FRAMES})"),
         ("--fps", DEFAULT_FPS, None, f"frames per second (default {DEFAULT_FPS})"),

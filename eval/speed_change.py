@@ -424,11 +424,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         ("--figure-episode", int, 0, "the evaluation episode the figure shows (index, default 0)"),
     ):
         parser.add_argument(flag, type=kind, default=default, help=text)
-    parser.add_argument(
-        "--optimiser",
-        default=DEFAULT_OPTIMISER,
-        help=f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})",
-    )
+    text = f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})"
+    parser.add_argument("--optimiser", default=DEFAULT_OPTIMISER, help=text)
     parser.add_argument(
         "--grid",
         type=float,
