@@ -145,22 +145,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     for flag in dict.fromkeys(t.condition_flag for t in tasks):
         declared = {t.name: t.declared_condition for t in tasks if t.condition_flag == flag}
         first = next(iter(declared.values()))
+        text = "; ".join(f"{name}: {c.label} [{c.unit}]" for name, c in declared.items())
         condition.add_argument(
-            flag,
-            type=float,
-            dest=first.keyword,
-            metavar=first.metavar,
-            help="; ".join(f"{name}: {c.label} [{c.unit}]" for name, c in declared.items()),
+            flag, type=float, dest=first.keyword, metavar=first.metavar, help=text
         )
     choosers = [t for t in tasks if t.declared_objectives.keyword is not None]
-    parser.add_argument(
-        "--objective",
-        choices=tuple(dict.fromkeys(c for t in choosers for c in t.declared_objectives.metrics)),
-        help="; ".join(
-            f"{t.name} only: the objective maximised (default {t.declared_objectives.default})"
-            for t in choosers
-        ),
+    choices = tuple(dict.fromkeys(c for t in choosers for c in t.declared_objectives.metrics))
+    text = "; ".join(
+        f"{t.name} only: the objective maximised (default {t.declared_objectives.default})"
+        for t in choosers
     )
+    parser.add_argument("--objective", choices=choices, help=text)
     parser.add_argument(
         "--method",
         required=True,

@@ -119,9 +119,8 @@ def show(
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("record", metavar="RECORD", help="a record file (records/<key>.json)")
-    parser.add_argument(
-        "--out", default=None, metavar="DIR", help="output folder (default: show/ beside records/)"
-    )
+    text = "output folder (default: show/ beside records/)"
+    parser.add_argument("--out", default=None, metavar="DIR", help=text)
     text = "animation format (default gif; mp4 needs ffmpeg)"
     parser.add_argument("--format", choices=tuple(ANIMATION_FORMATS), default="gif", help=text)
     for flag, default, metavar, text in (
