@@ -330,12 +330,10 @@ def candidates(records: Iterable[Record], jobs: Jobs) -> dict[PointKey, list[Rec
     model's (its revision, :attr:`~agents.records.Record.model`), its stroke must replay,
     through the env, to its record (:func:`agents.verify.refuted`, as every reused record does)
     and fly; any other record is refused (ValueError)."""
-    fingerprints = {
-        key: problem_fingerprint(
-            config_class(key[0]).from_kwargs(**dict(prepared[0].job.env_kwargs))
-        )
-        for key, prepared in jobs.items()
+    configs = {
+        k: config_class(k[0]).from_kwargs(**dict(p[0].job.env_kwargs)) for k, p in jobs.items()
     }
+    fingerprints = {key: problem_fingerprint(config) for key, config in configs.items()}
     kept: dict[PointKey, list[Record]] = {}
     revision = tandem_env.physics.MODEL_REVISION
     for record in records:
@@ -448,10 +446,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         rerun=args.rerun,
     )
     command.announce(look_ahead(table_plan, store, args.cache))
-    run = run_reporting(
-        parser,
-        lambda: run_plan(table_plan, store, **run_options(args), command=command, summary_csv=True),
-    )
+    options = dict(run_options(args), command=command, summary_csv=True)
+    run = run_reporting(parser, lambda: run_plan(table_plan, store, **options))
     if isinstance(run, int):
         return run
     rounds = table_plan.rounds

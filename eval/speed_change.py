@@ -200,10 +200,8 @@ def optima_records(
 def steady_optima(config: SpeedChangeConfig, **run: Any) -> SteadyPolicy:
     """The steady schedule of the level-flight optima of :func:`optima_records` (``run``)."""
     records = optima_records(config, **run)
-    return SteadyPolicy(
-        np.array([r.job.condition for r in records], dtype=np.float64),
-        np.array([r.normalised_stroke for r in records], dtype=np.float64),
-    )
+    speeds = np.array([r.job.condition for r in records], dtype=np.float64)
+    return SteadyPolicy(speeds, np.array([r.normalised_stroke for r in records], dtype=np.float64))
 
 
 #: The most evaluation episodes [-]: they are flown as one vector env, one model call of that

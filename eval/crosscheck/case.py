@@ -119,11 +119,8 @@ class Resolution:
         """This resolution and the ones that check its convergence: 2/3 and 4/3 of its time
         steps, and 1.5x chordwise by 2x spanwise panels (48 steps, 4x8: 32, 64 and 6x16)."""
         steps = [max(4, round(self.steps_per_beat * k)) for k in (2 / 3, 4 / 3)]
-        finer = replace(
-            self,
-            chordwise=min(16, math.ceil(1.5 * self.chordwise)),
-            spanwise=min(64, 2 * self.spanwise),
-        )
+        chordwise = min(16, math.ceil(1.5 * self.chordwise))
+        finer = replace(self, chordwise=chordwise, spanwise=min(64, 2 * self.spanwise))
         return (self, *(replace(self, steps_per_beat=s) for s in steps), finer)
 
 

@@ -110,11 +110,8 @@ def build(run: Run) -> tuple[Any, Any, list[str]]:
     import pterasoftware as ps
 
     # The first Airplane's origin is the problem's origin: the hind pair alone sits there.
-    hind_origin = (
-        np.zeros(3)
-        if run.fore is None
-        else hind_position(run.spacing, run.drop, run.stroke_plane_angle)
-    )
+    behind = hind_position(run.spacing, run.drop, run.stroke_plane_angle)
+    hind_origin = np.zeros(3) if run.fore is None else behind
     candidates = (("fore", run.fore, np.zeros(3)), ("hind", run.hind, hind_origin))
     pairs = [(name, motion, origin) for name, motion, origin in candidates if motion is not None]
     built = [_pair(ps, motion, name, run, origin) for name, motion, origin in pairs]
