@@ -290,21 +290,14 @@ def load_case(path: str | Path) -> MeasuredCase:
 def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, float]]:
     """L/W, T, D [N], P [W], P/m [W/kg] per wing pair and in total (earth axes)."""
     r: Result = history.result
+    keys = ("lift_to_weight", "thrust", "drag", "power", "power_per_mass")
     out = {}
     for name in WINGS:
         thrust, drag = getattr(history, name).thrust_and_drag()
-        power = float(getattr(r, f"{name}_power")[0])
-        out[name] = {
-            "lift_to_weight": float(getattr(r, f"{name}_lift_to_weight")[0]),
-            "thrust": thrust,
-            "drag": drag,
-            "power": power,
-            "power_per_mass": power / insect.body_mass,
-        }
-    out["total"] = {
-        key: float(getattr(r, key)[0])
-        for key in ("lift_to_weight", "thrust", "drag", "power", "power_per_mass")
-    }
+        power, lift = (float(getattr(r, f"{name}_{k}")[0]) for k in ("power", "lift_to_weight"))
+        mine = (lift, thrust, drag, power, power / insect.body_mass)
+        out[name] = dict(zip(keys, mine, strict=True))
+    out["total"] = {key: float(getattr(r, key)[0]) for key in keys}
     return out
 
 

@@ -314,33 +314,30 @@ def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str,
     for policy in dict.fromkeys(e["policy"] for e in episodes):
         rows = [e for e in episodes if e["policy"] == policy]
         values = {k: np.array([r[k] for r in rows], np.float64) for k in rows[0] if k != "policy"}
-        reached, per_metre = (
+        reached, metre = (
             v[np.isfinite(v)] for v in (values["time_to_target_s"], values["energy_per_metre_mJ_m"])
         )
         mean = {key: float(v.mean()) for key, v in values.items()}
-        out.append(
-            {
-                "policy": policy,
-                "episodes": len(rows),
-                "return_mean": mean["return"],
-                "return_std": float(values["return"].std()),
-                "terminated_share": mean["terminated"],
-                "reached_share": reached.size / len(rows),
-                "time_to_target_median_s": float(np.median(reached)) if reached.size else math.nan,
-                "final_speed_error_mean_m_s": mean["final_speed_error_m_s"],
-                "energy_per_metre_mean_mJ_m": float(per_metre.mean())
-                if per_metre.size
-                else math.nan,
-                "mean_abs_altitude_mean_mm": mean["mean_abs_altitude_mm"],
-                "flight_time_mean_s": mean["flight_time_s"],
-                "mean_power_W_kg": mean["mean_power_W_kg"],
-                **{
-                    f"return_{key}_mean": mean[f"return_{key}"]
-                    for key in REWARD_PARTS
-                    if f"return_{key}" in mean
-                },
-            }
-        )
+        row = {
+            "policy": policy,
+            "episodes": len(rows),
+            "return_mean": mean["return"],
+            "return_std": float(values["return"].std()),
+            "terminated_share": mean["terminated"],
+            "reached_share": reached.size / len(rows),
+            "time_to_target_median_s": float(np.median(reached)) if reached.size else math.nan,
+            "final_speed_error_mean_m_s": mean["final_speed_error_m_s"],
+            "energy_per_metre_mean_mJ_m": float(metre.mean()) if metre.size else math.nan,
+            "mean_abs_altitude_mean_mm": mean["mean_abs_altitude_mm"],
+            "flight_time_mean_s": mean["flight_time_s"],
+            "mean_power_W_kg": mean["mean_power_W_kg"],
+            **{
+                f"return_{key}_mean": mean[f"return_{key}"]
+                for key in REWARD_PARTS
+                if f"return_{key}" in mean
+            },
+        }
+        out.append(row)
     return out
 
 

@@ -99,9 +99,8 @@ def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) 
         )
         for each in airplane.wings
     ]
-    return airplane, ps.movements.airplane_movement.AirplaneMovement(
-        base_airplane=airplane, wing_movements=movements
-    )
+    movement = ps.movements.airplane_movement.AirplaneMovement
+    return airplane, movement(base_airplane=airplane, wing_movements=movements)
 
 
 def build(run: Run) -> tuple[Any, Any, list[str]]:
@@ -148,7 +147,7 @@ def solve(run: Run) -> dict[str, Any]:
         prescribed = run.wake == "prescribed"
         solver.run(prescribed_wake=prescribed, calculate_streamlines=False, show_progress=False)
     to_geometry = np.asarray(operating_point.T_pas_W_CgP1_to_GP1_CgP1)[:3, :3]
-    lateral = np.array([0.0, 1.0, 0.0])
+    axes = {"vertical": up, "forward": forward, "lateral": np.array([0.0, 1.0, 0.0])}
     out: dict[str, Any] = {}
     for index, name in enumerate(names):
         mean = to_geometry @ np.asarray(problem.finalMeanForces_W[index], dtype=float)
@@ -156,13 +155,8 @@ def solve(run: Run) -> dict[str, Any]:
         history = np.array(
             [to_geometry @ np.asarray(s.airplanes[index].forces_W, dtype=float) for s in last_beat]
         )
-        out[name] = {
-            "vertical": float(mean @ up),
-            "forward": float(mean @ forward),
-            "lateral": float(mean @ lateral),
-            "vertical_history": (history @ up).tolist(),
-            "forward_history": (history @ forward).tolist(),
-        }
+        out[name] = {key: float(mean @ axis) for key, axis in axes.items()}
+        out[name] |= {f"{k}_history": (history @ axes[k]).tolist() for k in ("vertical", "forward")}
     out["steps"] = int(problem.num_steps)
     out["wall_time"] = time.perf_counter() - start
     return out
