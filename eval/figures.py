@@ -198,11 +198,9 @@ def legend(
     handles, labels = zip(*entries, strict=True)
     if wrap:
         labels = tuple(textwrap.fill(label, wrap) for label in labels)
-    where = (
-        {"loc": "upper center", "bbox_to_anchor": (0.5, 0.0), "borderaxespad": gap}
-        if below
-        else {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
-    )
+    where = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
+    if below:
+        where = {"loc": "upper center", "bbox_to_anchor": (0.5, 0.0), "borderaxespad": gap}
     handler = {tuple: HandlerTuple(ndivide=1)}
     ax.legend(handles, labels, **where, fontsize=7, frameon=False, handler_map=handler, **kwargs)
 

@@ -437,13 +437,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         store = RecordStore(args.out)
     except ValueError as error:
         parser.error(str(error))
+    title = f"{NAME} (the reference table -> {table_path})"
+    detail = f"{METHOD}, {len(jobs)} grid points"
     command = CommandProgress(
-        f"{NAME} (the reference table -> {table_path})",
-        store,
-        cache=args.cache,
-        enabled=not args.quiet,
-        detail=f"{METHOD}, {len(jobs)} grid points",
-        rerun=args.rerun,
+        title, store, cache=args.cache, enabled=not args.quiet, detail=detail, rerun=args.rerun
     )
     command.announce(look_ahead(table_plan, store, args.cache))
     options = dict(run_options(args), command=command, summary_csv=True)
