@@ -50,13 +50,12 @@ START_LABEL = "best seed at t = 0 (arrows: direction of travel)"
 def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Arrowheads along a closed path (n, 2) at :data:`ARROW_PHASES`, the way it is travelled;
     each arrow's (from, to): a sample of the path and the next one."""
-    n = len(path)
-    segments = []
-    for phase in ARROW_PHASES:
-        k = min(int(phase * n), n - 2)
-        start, end = path[k], path[k + 1]
+    segments = [
+        (path[k], path[k + 1])
+        for k in (min(int(p * len(path)), len(path) - 2) for p in ARROW_PHASES)
+    ]
+    for start, end in segments:
         ax.add_patch(FancyArrowPatch(tuple(start), tuple(end), **ARROW_STYLE))
-        segments.append((start, end))
     return segments
 
 

@@ -41,13 +41,10 @@ def ours(case: Case, insect: Dragonfly) -> dict[str, Any]:
     strokes = np.array([shifted_stroke(np.asarray(case.stroke), lag) for lag in case.lags])
     flyer = replace(insect, root_spacing=case.spacing, root_drop=case.drop)
     out: dict[str, Any] = {}
-    for name, options in [("isolated", ModelOptions(induction="isolated"))] + [
-        (reading, ModelOptions(slipstream=reading)) for reading in READINGS
-    ]:
-        result = evaluate(strokes, case.speed, insect=flyer, options=options)
-        out[name] = {
-            pair: getattr(result, f"{pair}_lift_to_weight") * flyer.weight for pair in PAIRS
-        }
+    options = {"isolated": ModelOptions(induction="isolated")}
+    for name, option in (options | {r: ModelOptions(slipstream=r) for r in READINGS}).items():
+        result = evaluate(strokes, case.speed, insect=flyer, options=option)
+        out[name] = {p: getattr(result, f"{p}_lift_to_weight") * flyer.weight for p in PAIRS}
     return out
 
 
