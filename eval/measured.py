@@ -113,9 +113,8 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
     elif isinstance(value, (list, tuple)) and len(value) == 2:
         mean, harmonics = value
     else:
-        raise SpecError(
-            f"{where} = {value!r}; allowed: {{mean: M, harmonics: [[amplitude, phase], ...]}}"
-        )
+        msg = f"{where} = {value!r}; allowed: {{mean: M, harmonics: [[amplitude, phase], ...]}}"
+        raise SpecError(msg)
     mean = _number(mean, f"{where}.mean", "deg or rad")
     if not isinstance(harmonics, (list, tuple)):
         raise SpecError(f"{where}.harmonics = {harmonics!r}; allowed: [[amplitude, phase], ...]")
@@ -166,9 +165,8 @@ def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
             try:
                 data[h].append(float(cell))
             except ValueError:
-                raise SpecError(
-                    f"{table} row {line}, column {h!r}: {cell!r} is not a number"
-                ) from None
+                msg = f"{table} row {line}, column {h!r}: {cell!r} is not a number"
+                raise SpecError(msg) from None
     return {h: np.asarray(v) for h, v in data.items()}
 
 
@@ -204,9 +202,8 @@ def _measured_wing(
             if stations is None:
                 pitch = _series(spec["pitch"], f"{where}.pitch")
             elif not isinstance(spec["pitch"], (list, tuple)):
-                raise SpecError(
-                    f"{where}.pitch: with pitch_stations, a list of series, one per station"
-                )
+                msg = f"{where}.pitch: with pitch_stations, a list of series, one per station"
+                raise SpecError(msg)
             else:
                 pitch = [_series(p, f"{where}.pitch[{i}]") for i, p in enumerate(spec["pitch"])]
             return MeasuredWing.from_fourier(

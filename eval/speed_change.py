@@ -119,9 +119,8 @@ class SB3Policy:
                 f"{name.upper()} run (or give it with --{policy.algo})"
             )
         if policy.env_id != SPEED_CHANGE_ID:
-            raise ValueError(
-                f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"
-            )
+            msg = f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"
+            raise ValueError(msg)
         if policy.normalizer_path is not None:
             raise ValueError(
                 f"{run_dir} normalised its observations (VecNormalize); allowed here: runs with "

@@ -257,9 +257,8 @@ def base_stroke(**overrides: float) -> np.ndarray:
         for name, value in BASE_WING.items()
     }
     if unknown := sorted(set(overrides) - set(values)):
-        raise ValueError(
-            f"--stroke: unknown parameter(s) {unknown}; allowed: {', '.join(PARAMETER_NAMES)}"
-        )
+        msg = f"--stroke: unknown parameter(s) {unknown}; allowed: {', '.join(PARAMETER_NAMES)}"
+        raise ValueError(msg)
     values.update({k: float(v) for k, v in overrides.items()})
     return np.array([values[name] for name in PARAMETER_NAMES])
 

@@ -236,9 +236,8 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
         except ValueError:
             sep = ""
         if not sep:
-            raise ValueError(
-                f"--stroke {item!r}; allowed: NAME=NUMBER, e.g. fore_sweep_amplitude=40"
-            )
+            msg = f"--stroke {item!r}; allowed: NAME=NUMBER, e.g. fore_sweep_amplitude=40"
+            raise ValueError(msg)
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
     cases = [point.case(insect, stroke, lags) for point in grid.points]
     if where:

@@ -195,9 +195,8 @@ class SolverRecord:
             body = {k: data[k] for k in ("format", "key", "solver", "run", "result")}
             record = cls(SolverJob(Run.from_dict(body["run"]), body["solver"]), body["result"])
         except (KeyError, TypeError, ValueError, AttributeError) as error:
-            raise RecordError(
-                f"not a solver run's record ({type(error).__name__}: {error})"
-            ) from None
+            msg = f"not a solver run's record ({type(error).__name__}: {error})"
+            raise RecordError(msg) from None
         if data.get("checksum") != _checksum(body):
             raise RecordChecksumError("its checksum does not match its contents")
         if record.key != body["key"]:  # the key hashes the format too
