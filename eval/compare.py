@@ -95,9 +95,7 @@ class Row:
 
     def to_dict(self) -> dict[str, Any]:
         """The row's ``comparison.csv`` columns."""
-        columns = asdict(self)
-        del columns["distinct"]
-        return columns
+        return {name: value for name, value in asdict(self).items() if name != "distinct"}
 
 
 PanelKey = tuple[str, str, str, float, str]

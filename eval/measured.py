@@ -423,8 +423,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     for warning in caught:
         print(f"{parser.prog}: warning: {source}: {warning.message}", file=sys.stderr)
     print(format_summary(case, history))
-    json_path = out / f"{case.name}.json"
-    png_path = out / f"{case.name}.png"
+    json_path, png_path = (out / f"{case.name}.{suffix}" for suffix in ("json", "png"))
     for path in (json_path, png_path):
         if path.exists():
             print(f"replacing {path}", file=sys.stderr)

@@ -104,8 +104,7 @@ def show(
             for cursor in cursors:
                 cursor.set_xdata([cycle[k], cycle[k]])
 
-    picture = out / f"{record.key}.png"
-    movie = out / f"{record.key}.{fmt}"
+    picture, movie = (out / f"{record.key}.{suffix}" for suffix in ("png", fmt))
     place(0)
     with atomic_path(picture) as tmp:
         figure.savefig(tmp, dpi=DPI)

@@ -319,10 +319,8 @@ class Run:
             # The default wake is left out, so runs stored before the choice existed keep
             # their keys (and are reused); any other wake is another record.
             del fields["wake"]
-        text = json.dumps(
-            {"format": RUN_FORMAT, "solver": solver_version, "run": fields}, sort_keys=True
-        )
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
+        keyed = {"format": RUN_FORMAT, "solver": solver_version, "run": fields}
+        return hashlib.sha256(json.dumps(keyed, sort_keys=True).encode()).hexdigest()[:20]
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Run:
