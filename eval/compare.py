@@ -304,8 +304,7 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
             label += f" ({len(runs)} seed{'s' * (len(runs) != 1)})"
             ax.plot(x, median, drawstyle="steps-post", color=colour, ls=style["ls"], label=label)
             ax.fill_between(x, q25, q75, step="post", alpha=0.2, color=colour, lw=0)
-            feasible = [r.objective for r in runs if r.feasible]
-            if feasible:
+            if feasible := [r.objective for r in runs if r.feasible]:
                 reported = float(np.median(feasible))
                 # The search's history ends at its share of the budget; the polish spends the
                 # rest: the marker sits at the runs' median total evaluations, joined to the
@@ -349,8 +348,7 @@ def compare(
 ) -> list[Row]:
     """Write the table and plot (``figure_format``) of the records under ``directories``."""
     plot_path = figure_path(Path(out), PLOT_STEM, figure_format)  # a bad format fails first
-    records = read_record_files(directories)
-    if not records:
+    if not (records := read_record_files(directories)):
         raise ValueError(
             f"no harness records found in {', '.join(map(str, directories))} (JSON files "
             "written by `python -m eval optimize`)"

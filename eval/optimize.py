@@ -281,8 +281,7 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
     tasks = _tasks()
     task = next(t for t in tasks if t.name == args.task)  # one of them: argparse's choices
     declared = task.declared_condition
-    condition = getattr(args, declared.keyword)
-    if condition is None:
+    if (condition := getattr(args, declared.keyword)) is None:
         given = [
             t.condition_flag
             for t in tasks

@@ -458,8 +458,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     write_text_atomic(Path(args.out) / "reference.md", reference_markdown(table))
     write_reference_figure(table, Path(args.out) / "reference.png")
     for series in table["series"]:
-        weak = [p for p in series["points"] if not p["feasible"]]
-        if weak:
+        if weak := [p for p in series["points"] if not p["feasible"]]:
             print(
                 f"warning: {series['env_id']} {series['objective']} {series['planform']}: no "
                 f"feasible optimum at {[p['condition'] for p in weak]}",
@@ -481,8 +480,7 @@ def _condition_header(env_id: str) -> str:
 
 
 def _spread(point: Mapping[str, Any]) -> str:
-    values = [v for v in point["seed_objectives"] if v is not None]
-    if not values:
+    if not (values := [v for v in point["seed_objectives"] if v is not None]):
         return "none feasible"
     return f"{min(values):.4g}-{max(values):.4g} ({len(values)}/{len(point['seed_objectives'])})"
 
