@@ -183,20 +183,10 @@ COLUMN_WIDTH_MM = 85.0
 COLUMN_FONT_PT = 7.0
 #: The text sizes of a single-column figure: every text at :data:`COLUMN_FONT_PT`, the title
 #: a point larger.
-COLUMN_RC: dict[str, Any] = {
-    **{
-        key: COLUMN_FONT_PT
-        for key in (
-            "font.size",
-            "axes.titlesize",
-            "axes.labelsize",
-            "xtick.labelsize",
-            "ytick.labelsize",
-            "legend.fontsize",
-        )
-    },
-    "figure.titlesize": COLUMN_FONT_PT + 1,
-}
+COLUMN_RC: dict[str, Any] = dict.fromkeys(
+    ("font.size", "axes.titlesize", "axes.labelsize", "xtick.labelsize", "ytick.labelsize"),
+    COLUMN_FONT_PT,
+) | {"legend.fontsize": COLUMN_FONT_PT, "figure.titlesize": COLUMN_FONT_PT + 1}
 #: Characters per line of a single-column figure's panel titles and legends (two panels
 #: side by side at :data:`COLUMN_FONT_PT`).
 COLUMN_WRAP = 22
