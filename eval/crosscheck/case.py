@@ -281,8 +281,9 @@ class Case:
 
     @property
     def label(self) -> str:
-        where = f"d = {1e3 * self.spacing:.1f} mm, h = {1e3 * self.drop:.1f} mm"
-        return f"V = {self.speed:g} m/s, {where}"
+        return (
+            f"V = {self.speed:g} m/s, d = {1e3 * self.spacing:.1f} mm, h = {1e3 * self.drop:.1f} mm"
+        )
 
 
 @dataclass(frozen=True)
@@ -365,15 +366,9 @@ def case_runs(
         for pair in PAIRS
     }
     for lag in case.lags:
-        runs[f"tandem {lag:g}"] = Run(
-            "tandem",
-            fore=motions["fore"],
-            hind=wing_motion(insect.hind, stroke, "hind", lag),
-            spacing=case.spacing,
-            drop=case.drop,
-            lag=lag,
-            **common,
-        )
+        hind = wing_motion(insect.hind, stroke, "hind", lag)
+        where = {"spacing": case.spacing, "drop": case.drop, "lag": lag}
+        runs[f"tandem {lag:g}"] = Run("tandem", fore=motions["fore"], hind=hind, **where, **common)
     return runs
 
 
@@ -405,16 +400,12 @@ def wing_surface(
     span = np.linspace(0.0, STATIONS[-1], n_span)
     chord = np.interp(span, STATIONS, motion.chords)
     along = (np.linspace(0.0, 1.0, n_chord)[None, :] - 0.5) * chord[:, None]  # from mid-chord
-    x = along.ravel()
-    y = np.repeat(span * motion.length, n_chord)
+    x, y = along.ravel(), np.repeat(span * motion.length, n_chord)
     phi, eta = motion.angles(np.asarray(t, dtype=float))
     ce, se = np.cos(eta)[:, None], np.sin(eta)[:, None]
     cp, sp = np.cos(phi)[:, None], np.sin(phi)[:, None]
     # R_X(φ)·R_Y(η)·(x, y, 0)
-    px = ce * x
-    py = cp * y + sp * se * x
-    pz = sp * y - cp * se * x
-    points = np.stack([px, py, pz], axis=-1)
+    points = np.stack([ce * x, cp * y + sp * se * x, sp * y - cp * se * x], axis=-1)
     return points + (np.asarray(origin) + np.array([0.0, root_offset, 0.0]))
 
 
