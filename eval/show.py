@@ -132,10 +132,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from matplotlib import animation
 
-    if not 8 <= args.frames <= 720:
-        parser.error(f"--frames {args.frames}; allowed: an integer from 8 to 720")
-    if not 1 <= args.fps <= 100:
-        parser.error(f"--fps {args.fps}; allowed: an integer from 1 to 100")
+    for flag, low, high in (("--frames", 8, 720), ("--fps", 1, 100)):
+        if not low <= (value := getattr(args, flag[2:])) <= high:
+            parser.error(f"{flag} {value}; allowed: an integer from {low} to {high}")
     if not animation.writers.is_available(ANIMATION_FORMATS[args.format]):
         parser.error(
             f"--format {args.format} needs the {ANIMATION_FORMATS[args.format]} program, which "

@@ -35,8 +35,6 @@ HELP = (
     f"{INSTALL})"
 )
 DEFAULT_OUT = Path("results") / "crosscheck"
-#: Where the solver's records were kept before the runner ran them (:func:`adopt_old_runs`).
-OLD_RUNS_DIR = "runs"
 
 
 @dataclass(frozen=True)
@@ -275,7 +273,7 @@ def adopt_old_runs(out_dir: Path) -> None:
     """Move the records of ``OUT/runs`` (where they were kept before the runner ran the
     solver's runs: the same files) into the store's ``OUT/records``, once; one already there is
     kept. The store checks each when its run asks for it."""
-    for path in (out_dir / OLD_RUNS_DIR).glob("*.json"):
+    for path in (out_dir / "runs").glob("*.json"):
         (out_dir / RECORDS_DIR).mkdir(exist_ok=True)
         if not (out_dir / RECORDS_DIR / path.name).exists():
             path.replace(out_dir / RECORDS_DIR / path.name)

@@ -103,9 +103,7 @@ def rows(
                 "spacing_mm": round(1e3 * plan.case.spacing, 3),
                 "drop_mm": round(1e3 * plan.case.drop, 3),
                 "lag_deg": lag,
-                "steps_per_beat": plan.resolution.steps_per_beat,
-                "panels": plan.resolution.panels,
-                "beats": plan.resolution.beats,
+                **{k: getattr(plan.resolution, k) for k in ("steps_per_beat", "panels", "beats")},
                 "wake": plan.runs["fore"].wake,
                 "clearance_mm": round(1e3 * plan.clearance[lag]["pairs"], 2),
             }
