@@ -385,13 +385,10 @@ def hind_position(spacing: float, drop: float, beta_deg: float) -> np.ndarray:
 
 
 def wing_surface(
-    motion: WingMotion,
-    origin: np.ndarray,
-    t: np.ndarray,
-    root_offset: float,
-    samples: tuple[int, int],
+    motion: WingMotion, origin: np.ndarray, t: np.ndarray, offset: float, samples: tuple[int, int]
 ) -> np.ndarray:
-    """Points of a right wing's flat surface at times ``t`` [s], (len(t), n_span·n_chord, 3) [m].
+    """Points of a right wing's flat surface at times ``t`` [s], (len(t), n_span·n_chord, 3) [m],
+    its root ``offset`` [m] from the mid-plane.
 
     The wing pitches about its straight mid-chord line (docs/model.md §2.4), which sweeps about
     the stroke-plane normal through the root; the rotation is the solver's intrinsic x-y'
@@ -406,7 +403,7 @@ def wing_surface(
     cp, sp = np.cos(phi)[:, None], np.sin(phi)[:, None]
     # R_X(φ)·R_Y(η)·(x, y, 0)
     points = np.stack([ce * x, cp * y + sp * se * x, sp * y - cp * se * x], axis=-1)
-    return points + (np.asarray(origin) + np.array([0.0, root_offset, 0.0]))
+    return points + (np.asarray(origin) + np.array([0.0, offset, 0.0]))
 
 
 def clearances(case: Case, insect: Dragonfly) -> dict[float, dict[str, float]]:
