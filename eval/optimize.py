@@ -180,8 +180,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     }
     for option, what in pairs.items():
         add_pairs_argument(parser, option, f"{what} {values}")
-    add_insect_argument(parser)
-    add_run_arguments(parser, "--backend", "--device")
+    add_run_arguments(parser, "--insect", "--backend", "--device")
     parser.add_argument(
         "--polish",
         choices=POLISH_METHODS,
@@ -211,21 +210,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 
-def add_insect_argument(parser: argparse.ArgumentParser) -> None:
-    """``--insect FILE`` (shared with ``study``), read when the command line is parsed."""
-    parser.add_argument(
-        "--insect",
-        metavar="FILE",
-        action=checked_by(load_insect),
-        help="YAML file of the insect: the fields that differ from the paper's specimen "
+#: The options of the commands that run jobs (optimize, study, reference, speed-change,
+#: crosscheck): the argparse keywords of each (``--no-cache`` sets ``args.cache``; ``--insect``,
+#: optimize's and study's, is read when the command line is parsed).
+RUN_OPTIONS: dict[str, dict[str, Any]] = {
+    "--insect": {
+        "metavar": "FILE",
+        "action": checked_by(load_insect),
+        "help": "YAML file of the insect: the fields that differ from the paper's specimen "
         "(body_mass, fore: {length, mean_chord, mass, planform, coefficients}, hind: {...}; "
         "docs/envs.md, e.g. examples/orthetrum_cancellatum.yaml); part of each record's key",
-    )
-
-
-#: The options of every command that runs jobs (optimize, study, reference, speed-change,
-#: crosscheck): the argparse keywords of each (``--no-cache`` sets ``args.cache``).
-RUN_OPTIONS: dict[str, dict[str, Any]] = {
+    },
     "--backend": {
         "choices": BACKENDS,
         "help": "the model's implementation (env keyword backend; default numba): the results "

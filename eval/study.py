@@ -13,7 +13,7 @@ from agents.progress import CommandProgress
 from agents.runner import find_records, look_ahead, run_plan
 from agents.store import RecordStore
 from eval.figures import FORMATS
-from eval.optimize import add_insect_argument, add_run_arguments, run_reporting
+from eval.optimize import add_run_arguments, run_reporting
 from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD
 from eval.studies.presets import OVERRIDES, STUDY_PRESETS, overridden
@@ -107,8 +107,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     text = "harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several side"
     text += " by side (default: the preset's method)"
     parser.add_argument("--method", action="append", metavar="SPEC", help=text)
-    add_insect_argument(parser)
-    add_run_arguments(parser, "--backend", "--device", "--scheduler", "--no-cache", "--rerun")
+    add_run_arguments(parser, "--insect", "--backend", "--device", "--scheduler")
+    add_run_arguments(parser, "--no-cache", "--rerun", "--quiet")
     text = "N > 1 is short for --scheduler local:N; 1 (default) runs in this process"
     parser.add_argument("--workers", type=int, default=1, metavar="N", help=text)
     text = "; ".join(c.reading_help for c in CAMPAIGNS)
@@ -118,7 +118,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             parser.add_argument(flag, **option)
     text = f"file format of the figures (default {FORMATS[0]}; svg and pdf are vector graphics,"
     parser.add_argument("--format", choices=FORMATS, default=FORMATS[0], help=f"{text} for print)")
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
