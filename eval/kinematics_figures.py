@@ -70,9 +70,8 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
             digits = "".join(c for c in trace.label.split("(")[0] if c.isdigit())
             color = "k" if trace.best else PALETTE[(int(digits) if digits else i) % len(PALETTE)]
             loop = np.vstack([tip, tip[:1]])  # one period: the path closes on itself
-            ax.plot(
-                loop[:, 0], loop[:, 2], "-", color=color, label=trace.label, **_trace_style(trace)
-            )
+            style = {"color": color, "label": trace.label, **_trace_style(trace)}
+            ax.plot(loop[:, 0], loop[:, 2], "-", **style)
             if trace.best:
                 # Start of the cycle, and the direction of travel above every path.
                 ax.plot(tip[0, 0], tip[0, 2], "o", color="k", ms=5, zorder=5)

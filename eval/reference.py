@@ -140,9 +140,7 @@ def continuation(
         ]
         if env_id in NESTED_TASKS:
             sources += [(env_id, o, planform, condition) for o in objectives if o != objective]
-        strokes = list(
-            dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)
-        )
+        strokes = [*dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)]
         continued[key] = rule.job(prepared[0].job, strokes if found is not None else None, index)
     return continued
 

@@ -281,9 +281,8 @@ class Case:
 
     @property
     def label(self) -> str:
-        return (
-            f"V = {self.speed:g} m/s, d = {1e3 * self.spacing:.1f} mm, h = {1e3 * self.drop:.1f} mm"
-        )
+        where = f"d = {1e3 * self.spacing:.1f} mm, h = {1e3 * self.drop:.1f} mm"
+        return f"V = {self.speed:g} m/s, {where}"
 
 
 @dataclass(frozen=True)
@@ -330,10 +329,8 @@ class Run:
         fields = dict(data)
         for pair in PAIRS:
             if fields[pair] is not None:
-                motion = {
-                    k: tuple(v) if isinstance(v, list) else v for k, v in fields[pair].items()
-                }
-                fields[pair] = WingMotion(**motion)
+                wing = {k: tuple(v) if isinstance(v, list) else v for k, v in fields[pair].items()}
+                fields[pair] = WingMotion(**wing)
         fields["resolution"] = Resolution(**fields["resolution"])
         return cls(**fields)
 

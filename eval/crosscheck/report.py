@@ -211,28 +211,20 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
     fig, axes = plt.subplots(len(cases), 2, figsize=size, squeeze=False, width_ratios=(2, 1))
     for (left, right), key in zip(axes, cases, strict=True):
         mine = [r for r in table if case_of(r) == key]
-        at_base = (base.steps_per_beat, base.panels, base.beats)
-        main = [
-            r for r in mine if (r["steps_per_beat"], r["panels"], r["beats"]) == at_base
-        ] or mine
+        res = (base.steps_per_beat, base.panels, base.beats)
+        main = [r for r in mine if (r["steps_per_beat"], r["panels"], r["beats"]) == res] or mine
         lags = [r["lag_deg"] for r in main]
         # hind-wing: solid lines, filled circles and x; fore-wing: dashed, open circles and +
-        for pair, style, face, mark in (
-            ("hind", "-", UVLM_COLOUR, "x"),
-            ("fore", "--", "white", "+"),
-        ):
+        for pair, ls, mfc, mark in (("hind", "-", UVLM_COLOUR, "x"), ("fore", "--", "white", "+")):
             uvlm = [r[f"uvlm_{pair}_change_pct"] for r in main]
-            left.plot(lags, uvlm, "o" + style, color=UVLM_COLOUR, mfc=face, label=f"UVLM {pair}")
+            left.plot(lags, uvlm, "o" + ls, color=UVLM_COLOUR, mfc=mfc, label=f"UVLM {pair}")
             for i, reading in enumerate(READINGS):
-                change = [r[f"ours_{reading}_{pair}_change_pct"] for r in main]
-                left.plot(
-                    lags, change, mark + style, color=PALETTE[i], label=f"ours ({reading}) {pair}"
-                )
+                y = [r[f"ours_{reading}_{pair}_change_pct"] for r in main]
+                left.plot(lags, y, mark + ls, color=PALETTE[i], label=f"ours ({reading}) {pair}")
         left.axhline(0.0, color="0.7", lw=0.8)
         left.set_xticks(lags)
-        left.set(
-            xlabel="lag ΔΦ: the hind-wing's phase lead [deg]", ylabel="vertical force change [%]"
-        )
+        left.set_xlabel("lag ΔΦ: the hind-wing's phase lead [deg]")
+        left.set_ylabel("vertical force change [%]")
         first = main[0]
         left.set_title(
             f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm "
