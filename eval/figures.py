@@ -348,9 +348,8 @@ def convergence_figure(
                 highs.append(np.nanmax(later))
         for name, budget in budgets:
             ax.axvline(budget, color="grey", ls=":", lw=1)
-            ax.annotate(
-                name, (budget, 0.02), xycoords=("data", "axes fraction"), fontsize=7, rotation=90
-            )
+            at = ("data", "axes fraction")
+            ax.annotate(name, (budget, 0.02), xycoords=at, fontsize=7, rotation=90)
         if lows:
             low, high = min(lows), max(highs)
             pad = 0.05 * max(high - low, 1e-9)

@@ -316,9 +316,8 @@ def format_summary(case: MeasuredCase, history: StrokeHistory) -> str:
             f"{1e3 * row['drag']:8.3f} {1e3 * row['power']:8.3f} {row['power_per_mass']:11.1f}"
         )
     if case.options.thrust_split == "body":
-        lines.append(
-            "total T is the net horizontal wing force and D the body drag (thrust_split=body)"
-        )
+        body = "total T is the net horizontal wing force and D the body drag (thrust_split=body)"
+        lines.append(body)
     if not r.induction_converged[0]:
         lines.append("WARNING: the inflow solve did not converge on every annulus")
     lines.append(f"mean angle of attack {r.mean_angle_of_attack[0]:.1f}°")

@@ -138,17 +138,14 @@ def _check_reading_applies(
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     tasks = _tasks()
-    parser.add_argument(
-        "--task", required=True, choices=tuple(t.name for t in tasks), help="the flight task"
-    )
+    names = tuple(t.name for t in tasks)
+    parser.add_argument("--task", required=True, choices=names, help="the flight task")
     condition = parser.add_mutually_exclusive_group(required=True)
     for flag in dict.fromkeys(t.condition_flag for t in tasks):
         declared = {t.name: t.declared_condition for t in tasks if t.condition_flag == flag}
-        first = next(iter(declared.values()))
+        one = next(iter(declared.values()))  # the tasks of one flag share its keyword
         text = "; ".join(f"{name}: {c.label} [{c.unit}]" for name, c in declared.items())
-        condition.add_argument(
-            flag, type=float, dest=first.keyword, metavar=first.metavar, help=text
-        )
+        condition.add_argument(flag, type=float, dest=one.keyword, metavar=one.metavar, help=text)
     choosers = [t for t in tasks if t.declared_objectives.keyword is not None]
     choices = tuple(dict.fromkeys(c for t in choosers for c in t.declared_objectives.metrics))
     text = "; ".join(

@@ -448,9 +448,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     rounds = table_plan.rounds
     every = [p.job for prepared in jobs.values() for p in prepared]
     every += [job for r in rounds for job in r.values()]
-    table = build_table(
-        jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence), extra
-    )
+    made = provenance(every, run.records, table_plan.convergence)
+    table = build_table(jobs, rounds, run.records, made, extra)
     write_json_atomic(table_path, table)
     # The table as people read it: Markdown (OUT/reference.md) and a figure (OUT/reference.png).
     write_text_atomic(Path(args.out) / "reference.md", reference_markdown(table))

@@ -431,9 +431,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     for algo in ("ppo", "sac"):
         text = f"python -m train {algo.upper()} run folders"
         parser.add_argument(f"--{algo}", nargs="+", default=[], metavar="RUN_DIR", help=text)
-    parser.add_argument(
-        "--model", choices=("final", "best"), default="final", help="which saved model (final)"
-    )
+    text = "which saved model (final)"
+    parser.add_argument("--model", choices=("final", "best"), default="final", help=text)
     from eval.optimize import add_run_arguments  # eval.optimize imports the studies: not here
 
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
@@ -444,9 +443,8 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
     from agents.harness import prepare
 
     if len(set(args.grid)) != len(args.grid):
-        raise ValueError(
-            f"--grid {' '.join(shown(v, *args.grid) for v in args.grid)}: allowed: distinct speeds"
-        )
+        grid = " ".join(shown(v, *args.grid) for v in args.grid)
+        raise ValueError(f"--grid {grid}: allowed: distinct speeds")
     kwargs = level_kwargs(config)
     for speed in args.grid:
         try:  # the harness's own checks: method, budget, speed within the level task's range
