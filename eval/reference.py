@@ -197,12 +197,8 @@ def _pool(found: Found, key: PointKey) -> list[Record]:
     env_id, _, planform, condition = key
     if env_id not in NESTED_TASKS:
         return list(found[key])
-    return [
-        r
-        for (e, _, p, c), rs in found.items()
-        if (e, p) == (env_id, planform) and c <= condition
-        for r in rs
-    ]
+    keys = [k for k in found if (k[0], k[2]) == (env_id, planform) and k[3] <= condition]
+    return [r for k in keys for r in found[k]]
 
 
 def best_objectives(found: Found) -> dict[PointKey, float]:

@@ -251,11 +251,8 @@ BASE_ELEVATION_OFFSET = {"fore": 5.0, "hind": 0.0}
 
 def base_stroke(**overrides: float) -> np.ndarray:
     """The base case's (28,) stroke with named parameters (``fore_sweep_amplitude=40``) replaced."""
-    values = {
-        f"{pair}_{name}": (BASE_ELEVATION_OFFSET[pair] if name == "elevation_offset" else value)
-        for pair in PAIRS
-        for name, value in BASE_WING.items()
-    }
+    values = {f"{pair}_{name}": value for pair in PAIRS for name, value in BASE_WING.items()}
+    values |= {f"{pair}_elevation_offset": v for pair, v in BASE_ELEVATION_OFFSET.items()}
     if unknown := sorted(set(overrides) - set(values)):
         msg = f"--stroke: unknown parameter(s) {unknown}; allowed: {', '.join(PARAMETER_NAMES)}"
         raise ValueError(msg)

@@ -53,11 +53,13 @@ def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) 
         last = i == len(STATIONS) - 1
         # Leading points offset by half the change of chord: a straight mid-chord line, the
         # blade-element model's pitch axis (docs/model.md §2.4).
-        offset = (
-            (0.0, 0.0, 0.0)
-            if i == 0
-            else (-(chord - chords[i - 1]) / 2, (station - STATIONS[i - 1]) * motion.length, 0.0)
-        )
+        offset = (0.0, 0.0, 0.0)
+        if i:
+            offset = (
+                -(chord - chords[i - 1]) / 2,
+                (station - STATIONS[i - 1]) * motion.length,
+                0.0,
+            )
         sections.append(
             section(
                 airfoil=ps.geometry.airfoil.Airfoil(AIRFOIL),
