@@ -55,11 +55,8 @@ def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) 
         # blade-element model's pitch axis (docs/model.md §2.4).
         offset = (0.0, 0.0, 0.0)
         if i:
-            offset = (
-                -(chord - chords[i - 1]) / 2,
-                (station - STATIONS[i - 1]) * motion.length,
-                0.0,
-            )
+            span = (station - STATIONS[i - 1]) * motion.length
+            offset = (-(chord - chords[i - 1]) / 2, span, 0.0)
         sections.append(
             section(
                 airfoil=ps.geometry.airfoil.Airfoil(AIRFOIL),
