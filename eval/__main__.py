@@ -59,13 +59,11 @@ def build_parser(
     """The top-level parser with one sub-parser per subcommand module."""
     if modules is None:
         modules = [importlib.import_module(name) for name in SUBCOMMANDS]
-    parser = argparse.ArgumentParser(
-        prog=prog,
-        description=(
-            "Optimise strokes of the tandem-wing model with CMA-ES (the default), PSO, random "
-            "search or RL agents, and compare the recorded results."
-        ),
+    text = (
+        "Optimise strokes of the tandem-wing model with CMA-ES (the default), PSO, random "
+        "search or RL agents, and compare the recorded results."
     )
+    parser = argparse.ArgumentParser(prog=prog, description=text)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for module in modules:
         sub = subparsers.add_parser(module.NAME, help=module.HELP, **_texts(module))

@@ -153,15 +153,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         for t in choosers
     )
     parser.add_argument("--objective", choices=choices, help=text)
-    parser.add_argument(
-        "--method",
-        required=True,
-        metavar="METHOD",
-        help=(
-            f"search method: {', '.join(available_methods())} (policy as policy:RUN_DIR; "
-            "ppo, sac and policy come from train/)"
-        ),
+    text = (
+        f"search method: {', '.join(available_methods())} (policy as policy:RUN_DIR; "
+        "ppo, sac and policy come from train/)"
     )
+    parser.add_argument("--method", required=True, metavar="METHOD", help=text)
     text = f"model evaluations per seed (1 to {MAX_BUDGET:,})"
     parser.add_argument("--budget", required=True, type=int, metavar="N", help=text)
     parser.add_argument(
@@ -178,32 +174,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     for option, what in pairs.items():
         add_pairs_argument(parser, option, f"{what} {values}")
     add_run_arguments(parser, "--insect", "--backend", "--device")
-    parser.add_argument(
-        "--polish",
-        choices=POLISH_METHODS,
-        help="local polish of each seed's best feasible stroke (agents/polish.py): "
+    text = (
+        "local polish of each seed's best feasible stroke (agents/polish.py): "
         f"default {', '.join(f'{k} for {m}' for m, k in POLISH_DEFAULTS.items())}, none for "
         "the other methods; its evaluations count in --budget (the method setting "
-        "polish_share sets its part)",
+        "polish_share sets its part)"
     )
-    parser.add_argument(
-        "--warm-start",
-        choices=WARM_STARTS,
-        default="none",
-        help="table: polish the reference table's optimum at this condition and its grid "
+    parser.add_argument("--polish", choices=POLISH_METHODS, help=text)
+    text = (
+        "table: polish the reference table's optimum at this condition and its grid "
         f"neighbours' first, on {WARM_SHARE:g} of --budget (counted in it; the job's "
         "initial strokes, docs/reference.md); an error where the table has no such point. "
-        "Default none: a cold start",
+        "Default none: a cold start"
     )
-    parser.add_argument(
-        "--reading",
-        metavar="NAME",
-        help="run under a reading of the paper's open decisions (eval/studies/readings/): "
+    parser.add_argument("--warm-start", choices=WARM_STARTS, default="none", help=text)
+    text = (
+        "run under a reading of the paper's open decisions (eval/studies/readings/): "
         "paper (the reading that reproduces the most claims, docs/reproduction.md), a single "
         "such as hover-none, or singles joined by '+'; sets its model options as env "
-        "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "
-        "objective; one that also changes the model runs with a warning)",
+        "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes "
+        "only that objective is refused for any other objective; one that also changes the "
+        "model runs with a warning)"
     )
+    parser.add_argument("--reading", metavar="NAME", help=text)
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 

@@ -363,15 +363,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=text)
     text = "where the table goes (default: the packaged tandem_env/data/reference_optima.json)"
     parser.add_argument("--table", type=Path, default=None, help=text)
-    parser.add_argument(
-        "--candidates",
-        type=Path,
-        nargs="+",
-        default=[],
-        metavar="PATH",
-        help="record files or folders of other runs (e.g. eval optimize --out) whose strokes "
-        "compete for the table's points, with their provenance (docs/reference.md)",
+    text = (
+        "record files or folders of other runs (e.g. eval optimize --out) whose strokes "
+        "compete for the table's points, with their provenance (docs/reference.md)"
     )
+    parser.add_argument("--candidates", type=Path, nargs="+", default=[], metavar="PATH", help=text)
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 
@@ -550,15 +546,10 @@ def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
         for series in (s for s in table["series"] if s["env_id"] == env_id):
             colour = _COLOURS.get(series["objective"], "#000000")
             points = [p for p in series["points"] if p["feasible"]]
-            ax.plot(
-                [p["condition"] for p in points],
-                [p["objective"] for p in points],
-                _LINES.get(series["planform"], ":"),
-                color=colour,
-                marker="o",
-                markersize=3,
-                label=f"{series['objective']}, {series['planform']}",
-            )
+            x, y = ([p[k] for p in points] for k in ("condition", "objective"))
+            line = _LINES.get(series["planform"], ":")
+            label = f"{series['objective']}, {series['planform']}"
+            ax.plot(x, y, line, color=colour, marker="o", markersize=3, label=label)
             for p in series["points"]:
                 seeds = [v for v in p["seed_objectives"] if v is not None]
                 ax.plot([p["condition"]] * len(seeds), seeds, ".", color=colour, alpha=0.25)

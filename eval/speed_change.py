@@ -420,13 +420,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         parser.add_argument(flag, type=kind, default=default, help=text)
     text = f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})"
     parser.add_argument("--optimiser", default=DEFAULT_OPTIMISER, help=text)
+    text = "speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)"
     parser.add_argument(
-        "--grid",
-        type=float,
-        nargs="+",
-        default=list(STEADY_GRID),
-        metavar="V",
-        help="speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)",
+        "--grid", type=float, nargs="+", default=list(STEADY_GRID), metavar="V", help=text
     )
     for algo in ("ppo", "sac"):
         text = f"python -m train {algo.upper()} run folders"
