@@ -182,6 +182,7 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
             feasible = np.array([r.feasible for r in runs], dtype=bool)
             # the objective of strokes that do not fly is not a result: left out (NaN)
             q25 = median = q75 = best = spread = median_feasible = math.nan
+            kkt = [r.certificate.get("kkt_residual") for r in runs]
             if feasible.any():
                 q25, median, q75 = map(float, np.percentile(objective, [25, 50, 75]))
                 best, spread = float(objective.max()), relative_spread(objective)
@@ -206,9 +207,7 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     evaluations_median=float(np.median([r.evaluations for r in runs])),
                     wall_time_median_s=float(np.median([r.wall_time for r in runs])),
                     polish_gain_median=_median_known([r.certificate.get("gain") for r in runs]),
-                    kkt_residual_median=_median_known(
-                        [r.certificate.get("kkt_residual") for r in runs]
-                    ),
+                    kkt_residual_median=_median_known(kkt),
                     score_median=_median_known([r.score for r in runs]),
                 )
             )

@@ -160,9 +160,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--method", required=True, metavar="METHOD", help=text)
     text = f"model evaluations per seed (1 to {MAX_BUDGET:,})"
     parser.add_argument("--budget", required=True, type=int, metavar="N", help=text)
-    parser.add_argument(
-        "--seeds", required=True, type=int, nargs="+", metavar="SEED", help="one run per seed"
-    )
+    text = "one run per seed"
+    parser.add_argument("--seeds", required=True, type=int, nargs="+", metavar="SEED", help=text)
     parser.add_argument("--out", required=True, metavar="DIR", help="directory for the records")
     text = "strokes per iteration: PSO particles / random-search batch (default 40, at most"
     parser.add_argument("--swarm-size", type=int, metavar="N", help=f"{text} {MAX_BATCH:,})")

@@ -85,9 +85,8 @@ examples:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("study", choices=tuple(campaigns()), help="which study to run")
-    parser.add_argument(
-        "--preset", choices=tuple(STUDY_PRESETS), default="quick", help="conditions, seeds, budgets"
-    )
+    text = "conditions, seeds, budgets"
+    parser.add_argument("--preset", choices=tuple(STUDY_PRESETS), default="quick", help=text)
     shared = "wing-shape studies, readings"
     helps = {
         "speeds": ("V", float, f"the level-flight sweep [m/s] (speed and {shared})"),
