@@ -453,7 +453,7 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from eval.optimize import run_reporting
+    from eval.optimize import run_options, run_reporting
 
     if not 1 <= args.episodes <= MAX_EPISODES:
         parser.error(f"--episodes {args.episodes}; allowed: 1 to {MAX_EPISODES:,}")
@@ -483,20 +483,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         policies += [SB3Policy.load(run_dir, name, args.model) for run_dir, name in trained]
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
-    steady = run_reporting(
-        parser,
-        lambda: steady_optima(
-            config,  # type: ignore[arg-type]
-            speeds=args.grid,
-            method=args.optimiser,
-            budget=args.optima_budget,
-            cache_dir=args.out / "optima",
-            scheduler=args.scheduler,
-            progress=not args.quiet,
-            record_cache=args.cache,
-            rerun=args.rerun,
-        ),
-    )
+    # the runner's options as optima_records names them (--no-cache: record_cache)
+    run = dict(run_options(args), speeds=args.grid, budget=args.optima_budget)
+    run.update(method=args.optimiser, cache_dir=args.out / "optima", record_cache=run.pop("cache"))
+    steady = run_reporting(parser, lambda: steady_optima(config, **run))  # type: ignore[arg-type]
     if isinstance(steady, int):
         return steady
     policies.insert(1, steady)
