@@ -408,15 +408,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         warnings.simplefilter("always")
         try:
             case = load_case(source)
-            history = measured_history(
-                case.fore,
-                case.hind,
-                case.speed,
-                case.available_power,
-                flight_path_angle=case.flight_path_angle,
-                insect=case.insect,
-                options=case.options,
-            )
+            flight = dict(flight_path_angle=case.flight_path_angle, insect=case.insect)
+            inputs = (case.fore, case.hind, case.speed, case.available_power)
+            history = measured_history(*inputs, **flight, options=case.options)
         except ValueError as exc:  # a bad field (SpecError) or a stroke the model refuses
             parser.error(f"{source}: {exc}")
     for warning in caught:

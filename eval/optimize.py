@@ -325,16 +325,8 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
                 method_config.update(warm_start(task.name, condition, with_objective))
             except ValueError as error:
                 raise ValueError(f"--warm-start table: {error}") from None
-        return prepare(
-            args.method,
-            task,
-            condition,
-            args.budget,
-            args.seeds,
-            objective=objective,
-            env_kwargs=env_kwargs,
-            method_config=method_config,
-        )
+        options = dict(objective=objective, env_kwargs=env_kwargs, method_config=method_config)
+        return prepare(args.method, task, condition, args.budget, args.seeds, **options)
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
 

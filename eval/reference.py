@@ -83,16 +83,10 @@ def plan(
     for env_id, (objectives, conditions) in grid.items():
         task = get_task(task_of(env_id))
         for objective, planform, condition in product(objectives, PLANFORMS, conditions):
-            jobs[env_id, objective, planform, condition] = prepare(
-                METHOD,
-                task,
-                condition,
-                budgets[env_id],
-                seeds,
-                objective=objective if task.declared_objectives.keyword else None,
-                env_kwargs={"planform": planform, **(env_kwargs or {})},
-                preset=PRESET,
-            )
+            key = (env_id, objective, planform, condition)
+            options = {"env_kwargs": {"planform": planform, **(env_kwargs or {})}, "preset": PRESET}
+            options["objective"] = objective if task.declared_objectives.keyword else None
+            jobs[key] = prepare(METHOD, task, condition, budgets[env_id], seeds, **options)
     return jobs
 
 
