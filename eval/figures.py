@@ -167,8 +167,7 @@ def draw_series(ax: Axes, series: Series) -> tuple | None:
     med = np.array([k * s.median for s in stats], float)
     if not np.isfinite(med).any():
         return None
-    lo = np.array([k * s.q25 for s in stats])
-    hi = np.array([k * s.q75 for s in stats])
+    lo, hi = (np.array([k * getattr(s, q) for s in stats]) for q in ("q25", "q75"))
     band = ax.fill_between(x, lo, hi, color=color, alpha=0.2, linewidth=0)
     (line,) = ax.plot(x, med, color=color, ls=style["ls"], lw=1.6)
     for c, s in zip(x, stats, strict=True):

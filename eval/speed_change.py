@@ -240,9 +240,8 @@ def run_episodes(
     """Fly one episode per seed with ``policy``: sub-env i of the native vector env reset with
     ``seeds[i]``, one batched model call per cycle; each sub-env's first episode."""
     n = len(seeds)
-    envs = gym.make_vec(
-        SPEED_CHANGE_ID, num_envs=n, vectorization_mode="vector_entry_point", **(env_kwargs or {})
-    )
+    mode = "vector_entry_point"  # the native vector env: one model call for all sub-envs
+    envs = gym.make_vec(SPEED_CHANGE_ID, num_envs=n, vectorization_mode=mode, **(env_kwargs or {}))
     states = ("time", "forward_speed", "altitude", "distance")  # the start state, then each cycle's
     try:
         observations, info = envs.reset(seed=[int(s) for s in seeds])
