@@ -59,13 +59,11 @@ def build_parser(
     """The top-level parser with one sub-parser per subcommand module."""
     if modules is None:
         modules = [importlib.import_module(name) for name in SUBCOMMANDS]
-    parser = argparse.ArgumentParser(
-        prog=prog,
-        description=(
-            "Optimise strokes of the tandem-wing model with CMA-ES (the default), PSO, random "
-            "search or RL agents, and compare the recorded results."
-        ),
+    text = (
+        "Optimise strokes of the tandem-wing model with CMA-ES (the default), PSO, random "
+        "search or RL agents, and compare the recorded results."
     )
+    parser = argparse.ArgumentParser(prog=prog, description=text)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for module in modules:
         sub = subparsers.add_parser(module.NAME, help=module.HELP, **_texts(module))
@@ -90,9 +88,8 @@ def _script(module_name: str) -> Callable[[], int]:
     @command_line
     def script() -> int:
         module = importlib.import_module(module_name)
-        parser = argparse.ArgumentParser(
-            prog=_prog(f"python -m eval {module.NAME}"), **_texts(module)
-        )
+        prog = _prog(f"python -m eval {module.NAME}")
+        parser = argparse.ArgumentParser(prog=prog, **_texts(module))
         module.add_arguments(parser)
         args = parser.parse_args(sys.argv[1:])
         with warnings_as_lines():

@@ -95,9 +95,7 @@ class Row:
 
     def to_dict(self) -> dict[str, Any]:
         """The row's ``comparison.csv`` columns."""
-        columns = asdict(self)
-        del columns["distinct"]
-        return columns
+        return {name: value for name, value in asdict(self).items() if name != "distinct"}
 
 
 PanelKey = tuple[str, str, str, float, str]
@@ -131,12 +129,11 @@ def distinct_settings(keys: Sequence[SeriesKey]) -> dict[SeriesKey, str]:
     for key, m in zip(keys, maps, strict=True):
         # method settings are compared among the series of the same method only
         peers = [p for k, p in zip(keys, maps, strict=True) if k[0] == key[0]]
-        names = sorted({n for p in maps for n in p if not n.startswith("method.")})
-        names += sorted({n for p in peers for n in p if n.startswith("method.")})
         varying = [
             n
-            for n in names
-            if len({p.get(n) for p in (peers if n.startswith("method.") else maps)}) > 1
+            for among, method in ((maps, False), (peers, True))
+            for n in sorted({n for p in among for n in p if n.startswith("method.") == method})
+            if len({p.get(n) for p in among}) > 1
         ]
         parts = [f"budget {key[1]}"] if len(budgets) > 1 else []
         parts += [f"{n}={m.get(n, 'default')}" for n in varying]
@@ -178,7 +175,6 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
     """One :class:`Row` per task/objective/condition and configuration."""
     rows = []
     for key, series in group(records).items():
-        task, objective_name, condition, value, unit = key
         distinct = distinct_settings(list(series))
         for skey, runs in series.items():
             method, budget, pairs = skey
@@ -186,17 +182,14 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
             feasible = np.array([r.feasible for r in runs], dtype=bool)
             # the objective of strokes that do not fly is not a result: left out (NaN)
             q25 = median = q75 = best = spread = median_feasible = math.nan
+            kkt = [r.certificate.get("kkt_residual") for r in runs]
             if feasible.any():
                 q25, median, q75 = map(float, np.percentile(objective, [25, 50, 75]))
                 best, spread = float(objective.max()), relative_spread(objective)
                 median_feasible = float(np.median(objective[feasible]))
             rows.append(
                 Row(
-                    task=task,
-                    objective_name=objective_name,
-                    condition=condition,
-                    condition_value=value,
-                    condition_unit=unit,
+                    *key,  # task, objective name, condition, its value and unit
                     method=method,
                     budget=budget,
                     settings="; ".join(f"{k}={v}" for k, v in pairs),
@@ -214,9 +207,7 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     evaluations_median=float(np.median([r.evaluations for r in runs])),
                     wall_time_median_s=float(np.median([r.wall_time for r in runs])),
                     polish_gain_median=_median_known([r.certificate.get("gain") for r in runs]),
-                    kkt_residual_median=_median_known(
-                        [r.certificate.get("kkt_residual") for r in runs]
-                    ),
+                    kkt_residual_median=_median_known(kkt),
                     score_median=_median_known([r.score for r in runs]),
                 )
             )
@@ -312,8 +303,7 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
             label += f" ({len(runs)} seed{'s' * (len(runs) != 1)})"
             ax.plot(x, median, drawstyle="steps-post", color=colour, ls=style["ls"], label=label)
             ax.fill_between(x, q25, q75, step="post", alpha=0.2, color=colour, lw=0)
-            feasible = [r.objective for r in runs if r.feasible]
-            if feasible:
+            if feasible := [r.objective for r in runs if r.feasible]:
                 reported = float(np.median(feasible))
                 # The search's history ends at its share of the budget; the polish spends the
                 # rest: the marker sits at the runs' median total evaluations, joined to the
@@ -357,8 +347,7 @@ def compare(
 ) -> list[Row]:
     """Write the table and plot (``figure_format``) of the records under ``directories``."""
     plot_path = figure_path(Path(out), PLOT_STEM, figure_format)  # a bad format fails first
-    records = read_record_files(directories)
-    if not records:
+    if not (records := read_record_files(directories)):
         raise ValueError(
             f"no harness records found in {', '.join(map(str, directories))} (JSON files "
             "written by `python -m eval optimize`)"
@@ -379,18 +368,10 @@ def default_out(directories: Sequence[str | Path]) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("dirs", nargs="+", metavar="DIR", help="directories (or files) of records")
-    parser.add_argument(
-        "--out",
-        default=None,
-        metavar="OUT",
-        help=f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)",
-    )
-    parser.add_argument(
-        "--format",
-        choices=FORMATS,
-        default=FORMATS[0],
-        help=f"file format of the convergence figure (default {FORMATS[0]})",
-    )
+    text = f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)"
+    parser.add_argument("--out", default=None, metavar="OUT", help=text)
+    text = f"file format of the convergence figure (default {FORMATS[0]})"
+    parser.add_argument("--format", choices=FORMATS, default=FORMATS[0], help=text)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -48,14 +48,9 @@ LINE_HUES: tuple[str, ...] = PALETTE[:6]
 #: a hue with each other.
 VARIANT_HUE_STEP = 4
 #: Readable names of the method families for legends.
-METHOD_NAMES: dict[str, str] = {
-    "cmaes": "CMA-ES",
-    "pso": "PSO",
-    "random": "random search",
-    "policy": "policy",
-    "ppo": "PPO",
-    "sac": "SAC",
-}
+METHOD_NAMES: dict[str, str] = dict(
+    cmaes="CMA-ES", pso="PSO", random="random search", policy="policy", ppo="PPO", sac="SAC"
+)
 #: Fixed colour of each method family (the spec's name before ':'), the palette in this order;
 #: other specs get one by checksum, so no colour depends on the figure's other series.
 METHOD_COLORS: dict[str, str] = dict(zip(METHOD_NAMES, PALETTE, strict=False))
@@ -101,20 +96,14 @@ def method_color(spec: str) -> str:
     return PALETTE[zlib.crc32(spec.encode()) % len(PALETTE)]
 
 
-def variant_color(base: str, variant: int = 0) -> str:
-    """The hue of variant ``variant`` of a series whose variant 0 is ``base``."""
-    if not variant:
-        return base
-    start = LINE_HUES.index(base) if base in LINE_HUES else 0
-    return LINE_HUES[(start + VARIANT_HUE_STEP * variant) % len(LINE_HUES)]
-
-
 def series_style(method: str, variant: int = 0) -> dict[str, Any]:
-    """Colour (:func:`variant_color`) and line style of a method's variant."""
-    return {
-        "color": variant_color(method_color(method), variant),
-        "ls": VARIANT_LINES[variant % len(VARIANT_LINES)],
-    }
+    """Colour and line style of a method's variant: variant 0 in the method's colour, variant k
+    :data:`VARIANT_HUE_STEP` · k steps along :data:`LINE_HUES` from it."""
+    color = method_color(method)
+    if variant:
+        start = LINE_HUES.index(color) if color in LINE_HUES else 0
+        color = LINE_HUES[(start + VARIANT_HUE_STEP * variant) % len(LINE_HUES)]
+    return {"color": color, "ls": VARIANT_LINES[variant % len(VARIANT_LINES)]}
 
 
 def figure_path(folder: Path, stem: str, fmt: str = FORMATS[0]) -> Path:
@@ -178,8 +167,7 @@ def draw_series(ax: Axes, series: Series) -> tuple | None:
     med = np.array([k * s.median for s in stats], float)
     if not np.isfinite(med).any():
         return None
-    lo = np.array([k * s.q25 for s in stats])
-    hi = np.array([k * s.q75 for s in stats])
+    lo, hi = (np.array([k * getattr(s, q) for s in stats]) for q in ("q25", "q75"))
     band = ax.fill_between(x, lo, hi, color=color, alpha=0.2, linewidth=0)
     (line,) = ax.plot(x, med, color=color, ls=style["ls"], lw=1.6)
     for c, s in zip(x, stats, strict=True):
@@ -209,20 +197,11 @@ def legend(
     handles, labels = zip(*entries, strict=True)
     if wrap:
         labels = tuple(textwrap.fill(label, wrap) for label in labels)
-    where = (
-        {"loc": "upper center", "bbox_to_anchor": (0.5, 0.0), "borderaxespad": gap}
-        if below
-        else {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
-    )
-    ax.legend(
-        handles,
-        labels,
-        **where,
-        fontsize=7,
-        frameon=False,
-        handler_map={tuple: HandlerTuple(ndivide=1)},
-        **kwargs,
-    )
+    where = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
+    if below:
+        where = {"loc": "upper center", "bbox_to_anchor": (0.5, 0.0), "borderaxespad": gap}
+    handler = {tuple: HandlerTuple(ndivide=1)}
+    ax.legend(handles, labels, **where, fontsize=7, frameon=False, handler_map=handler, **kwargs)
 
 
 def text_entry(text: str) -> tuple[Any, str]:
@@ -368,9 +347,8 @@ def convergence_figure(
                 highs.append(np.nanmax(later))
         for name, budget in budgets:
             ax.axvline(budget, color="grey", ls=":", lw=1)
-            ax.annotate(
-                name, (budget, 0.02), xycoords=("data", "axes fraction"), fontsize=7, rotation=90
-            )
+            at = ("data", "axes fraction")
+            ax.annotate(name, (budget, 0.02), xycoords=at, fontsize=7, rotation=90)
         if lows:
             low, high = min(lows), max(highs)
             pad = 0.05 * max(high - low, 1e-9)

@@ -37,41 +37,25 @@ def _trace_style(trace: Trace) -> dict:
     return {"lw": 2.0, "alpha": 1.0} if trace.best else {"lw": 0.8, "alpha": 0.35}
 
 
-def _seed_color(trace: Trace, i: int) -> str:
-    """Black for the best seed, else a palette colour fixed by the seed in the label."""
-    if trace.best:
-        return "k"
-    digits = "".join(c for c in trace.label.split("(")[0] if c.isdigit())
-    return PALETTE[(int(digits) if digits else i) % len(PALETTE)]
-
-
 #: Where along the cycle the tip paths' direction arrows sit [t/T]: one per quarter, so a
 #: figure-of-eight shows its direction on both loops.
 ARROW_PHASES: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
 #: The arrowheads: filled black with a white rim, above every path, 16 pt long.
-ARROW_STYLE: dict = {
-    "arrowstyle": "-|>",
-    "mutation_scale": 16,
-    "fc": "k",
-    "ec": "white",
-    "lw": 0.8,
-    "shrinkA": 0,
-    "shrinkB": 0,
-    "zorder": 6,
-}
+ARROW_STYLE: dict = dict(
+    arrowstyle="-|>", mutation_scale=16, fc="k", ec="white", lw=0.8, shrinkA=0, shrinkB=0, zorder=6
+)
 START_LABEL = "best seed at t = 0 (arrows: direction of travel)"
 
 
 def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Arrowheads along a closed path (n, 2) at :data:`ARROW_PHASES`, the way it is travelled;
     each arrow's (from, to): a sample of the path and the next one."""
-    n = len(path)
-    segments = []
-    for phase in ARROW_PHASES:
-        k = min(int(phase * n), n - 2)
-        start, end = path[k], path[k + 1]
+    segments = [
+        (path[k], path[k + 1])
+        for k in (min(int(p * len(path)), len(path) - 2) for p in ARROW_PHASES)
+    ]
+    for start, end in segments:
         ax.add_patch(FancyArrowPatch(tuple(start), tuple(end), **ARROW_STYLE))
-        segments.append((start, end))
     return segments
 
 
@@ -82,7 +66,9 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
     for ax, wing in zip(axes, ("fore", "hind"), strict=True):
         for i, trace in enumerate(traces):
             tip = getattr(trace, wing)["tip_path"]
-            color = _seed_color(trace, i)
+            # black for the best seed, else a palette colour fixed by the seed in the label
+            digits = "".join(c for c in trace.label.split("(")[0] if c.isdigit())
+            color = "k" if trace.best else PALETTE[(int(digits) if digits else i) % len(PALETTE)]
             loop = np.vstack([tip, tip[:1]])  # one period: the path closes on itself
             style = {"color": color, "label": trace.label, **_trace_style(trace)}
             ax.plot(loop[:, 0], loop[:, 2], "-", **style)
@@ -197,20 +183,10 @@ COLUMN_WIDTH_MM = 85.0
 COLUMN_FONT_PT = 7.0
 #: The text sizes of a single-column figure: every text at :data:`COLUMN_FONT_PT`, the title
 #: a point larger.
-COLUMN_RC: dict[str, Any] = {
-    **{
-        key: COLUMN_FONT_PT
-        for key in (
-            "font.size",
-            "axes.titlesize",
-            "axes.labelsize",
-            "xtick.labelsize",
-            "ytick.labelsize",
-            "legend.fontsize",
-        )
-    },
-    "figure.titlesize": COLUMN_FONT_PT + 1,
-}
+COLUMN_RC: dict[str, Any] = dict.fromkeys(
+    ("font.size", "axes.titlesize", "axes.labelsize", "xtick.labelsize", "ytick.labelsize"),
+    COLUMN_FONT_PT,
+) | {"legend.fontsize": COLUMN_FONT_PT, "figure.titlesize": COLUMN_FONT_PT + 1}
 #: Characters per line of a single-column figure's panel titles and legends (two panels
 #: side by side at :data:`COLUMN_FONT_PT`).
 COLUMN_WRAP = 22

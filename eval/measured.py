@@ -113,9 +113,8 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
     elif isinstance(value, (list, tuple)) and len(value) == 2:
         mean, harmonics = value
     else:
-        raise SpecError(
-            f"{where} = {value!r}; allowed: {{mean: M, harmonics: [[amplitude, phase], ...]}}"
-        )
+        msg = f"{where} = {value!r}; allowed: {{mean: M, harmonics: [[amplitude, phase], ...]}}"
+        raise SpecError(msg)
     mean = _number(mean, f"{where}.mean", "deg or rad")
     if not isinstance(harmonics, (list, tuple)):
         raise SpecError(f"{where}.harmonics = {harmonics!r}; allowed: [[amplitude, phase], ...]")
@@ -166,9 +165,8 @@ def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
             try:
                 data[h].append(float(cell))
             except ValueError:
-                raise SpecError(
-                    f"{table} row {line}, column {h!r}: {cell!r} is not a number"
-                ) from None
+                msg = f"{table} row {line}, column {h!r}: {cell!r} is not a number"
+                raise SpecError(msg) from None
     return {h: np.asarray(v) for h, v in data.items()}
 
 
@@ -204,9 +202,8 @@ def _measured_wing(
             if stations is None:
                 pitch = _series(spec["pitch"], f"{where}.pitch")
             elif not isinstance(spec["pitch"], (list, tuple)):
-                raise SpecError(
-                    f"{where}.pitch: with pitch_stations, a list of series, one per station"
-                )
+                msg = f"{where}.pitch: with pitch_stations, a list of series, one per station"
+                raise SpecError(msg)
             else:
                 pitch = [_series(p, f"{where}.pitch[{i}]") for i, p in enumerate(spec["pitch"])]
             return MeasuredWing.from_fourier(
@@ -282,37 +279,22 @@ def load_case(path: str | Path) -> MeasuredCase:
         model_options = ModelOptions(**options)
     except (TypeError, ValueError) as exc:
         raise SpecError(f"options: {exc}") from None
-    return MeasuredCase(
-        name=path.stem,
-        description=str(spec.get("description", "")),
-        fore=wings[0],
-        hind=wings[1],
-        speed=speed,
-        flight_path_angle=math.radians(gamma) if degrees else gamma,
-        available_power=power,
-        insect=insect,
-        options=model_options,
-    )
+    gamma = math.radians(gamma) if degrees else gamma
+    description = str(spec.get("description", ""))
+    return MeasuredCase(path.stem, description, *wings, speed, gamma, power, insect, model_options)
 
 
 def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, float]]:
     """L/W, T, D [N], P [W], P/m [W/kg] per wing pair and in total (earth axes)."""
     r: Result = history.result
+    keys = ("lift_to_weight", "thrust", "drag", "power", "power_per_mass")
     out = {}
     for name in WINGS:
         thrust, drag = getattr(history, name).thrust_and_drag()
-        power = float(getattr(r, f"{name}_power")[0])
-        out[name] = {
-            "lift_to_weight": float(getattr(r, f"{name}_lift_to_weight")[0]),
-            "thrust": thrust,
-            "drag": drag,
-            "power": power,
-            "power_per_mass": power / insect.body_mass,
-        }
-    out["total"] = {
-        key: float(getattr(r, key)[0])
-        for key in ("lift_to_weight", "thrust", "drag", "power", "power_per_mass")
-    }
+        power, lift = (float(getattr(r, f"{name}_{k}")[0]) for k in ("power", "lift_to_weight"))
+        mine = (lift, thrust, drag, power, power / insect.body_mass)
+        out[name] = dict(zip(keys, mine, strict=True))
+    out["total"] = {key: float(getattr(r, key)[0]) for key in keys}
     return out
 
 
@@ -334,9 +316,8 @@ def format_summary(case: MeasuredCase, history: StrokeHistory) -> str:
             f"{1e3 * row['drag']:8.3f} {1e3 * row['power']:8.3f} {row['power_per_mass']:11.1f}"
         )
     if case.options.thrust_split == "body":
-        lines.append(
-            "total T is the net horizontal wing force and D the body drag (thrust_split=body)"
-        )
+        body = "total T is the net horizontal wing force and D the body drag (thrust_split=body)"
+        lines.append(body)
     if not r.induction_converged[0]:
         lines.append("WARNING: the inflow solve did not converge on every annulus")
     lines.append(f"mean angle of attack {r.mean_angle_of_attack[0]:.1f}°")
@@ -410,11 +391,8 @@ def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("kinematics", metavar="KINEMATICS.yaml", help="the kinematics file")
-    parser.add_argument(
-        "--out",
-        default=str(DEFAULT_OUT),
-        help=f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})",
-    )
+    text = f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})"
+    parser.add_argument("--out", default=str(DEFAULT_OUT), help=text)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -430,22 +408,15 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         warnings.simplefilter("always")
         try:
             case = load_case(source)
-            history = measured_history(
-                case.fore,
-                case.hind,
-                case.speed,
-                case.available_power,
-                flight_path_angle=case.flight_path_angle,
-                insect=case.insect,
-                options=case.options,
-            )
+            flight = dict(flight_path_angle=case.flight_path_angle, insect=case.insect)
+            inputs = (case.fore, case.hind, case.speed, case.available_power)
+            history = measured_history(*inputs, **flight, options=case.options)
         except ValueError as exc:  # a bad field (SpecError) or a stroke the model refuses
             parser.error(f"{source}: {exc}")
     for warning in caught:
         print(f"{parser.prog}: warning: {source}: {warning.message}", file=sys.stderr)
     print(format_summary(case, history))
-    json_path = out / f"{case.name}.json"
-    png_path = out / f"{case.name}.png"
+    json_path, png_path = (out / f"{case.name}.{suffix}" for suffix in ("json", "png"))
     for path in (json_path, png_path):
         if path.exists():
             print(f"replacing {path}", file=sys.stderr)

@@ -46,13 +46,9 @@ def _tasks_text(width: int = 92) -> str:
         what = f"{condition.label} [{condition.unit}] ({low:g}-{high:g})"
         text = f"{task.condition_flag} {condition.metavar}  {what}; {task.declaration.summary}"
         if objectives.keyword is not None:
-            choices = ", ".join(objectives.metrics)
-            text += f" --objective: {choices} (default {objectives.default})."
-        lines.append(
-            textwrap.fill(
-                text, width, initial_indent=f"  {task.name:<11} ", subsequent_indent=" " * 14
-            )
-        )
+            text += f" --objective: {', '.join(objectives.metrics)} (default {objectives.default})."
+        indent = f"  {task.name:<11} "
+        lines.append(textwrap.fill(text, width, initial_indent=indent, subsequent_indent=" " * 14))
     return "\n".join(lines)
 
 
@@ -97,9 +93,6 @@ examples:
 
 T = TypeVar("T")
 
-#: What an interrupted run says (optimize and study).
-INTERRUPTED = "the finished records are stored; the same command resumes from them"
-
 
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
     """``call()`` (a run of jobs: optimize, study, reference or speed-change), or the exit
@@ -116,7 +109,8 @@ def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T |
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        resumes = "the finished records are stored; the same command resumes from them"
+        print(f"{parser.prog}: interrupted; {resumes}", file=sys.stderr)
         return 130
 
 
@@ -125,11 +119,9 @@ def _check_reading_applies(
 ) -> None:
     """A reading's horizontal objective with no horizontal objective here to replace: refused
     if it is all the reading changes, a warning if its model options still apply."""
-    if reading.horizontal_objective == "horizontal":
-        return
     objectives = task.declared_objectives
     given = objective if objective is not None else objectives.default
-    if given == "horizontal":
+    if "horizontal" in (reading.horizontal_objective, given):
         return
     where = f"--task {task.name}" + (f" --objective {given}" if objectives.keyword else "")
     what = (
@@ -146,56 +138,33 @@ def _check_reading_applies(
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     tasks = _tasks()
-    parser.add_argument(
-        "--task", required=True, choices=tuple(t.name for t in tasks), help="the flight task"
-    )
+    names = tuple(t.name for t in tasks)
+    parser.add_argument("--task", required=True, choices=names, help="the flight task")
     condition = parser.add_mutually_exclusive_group(required=True)
     for flag in dict.fromkeys(t.condition_flag for t in tasks):
         declared = {t.name: t.declared_condition for t in tasks if t.condition_flag == flag}
-        first = next(iter(declared.values()))
-        condition.add_argument(
-            flag,
-            type=float,
-            dest=first.keyword,
-            metavar=first.metavar,
-            help="; ".join(f"{name}: {c.label} [{c.unit}]" for name, c in declared.items()),
-        )
+        one = next(iter(declared.values()))  # the tasks of one flag share its keyword
+        text = "; ".join(f"{name}: {c.label} [{c.unit}]" for name, c in declared.items())
+        condition.add_argument(flag, type=float, dest=one.keyword, metavar=one.metavar, help=text)
     choosers = [t for t in tasks if t.declared_objectives.keyword is not None]
-    parser.add_argument(
-        "--objective",
-        choices=tuple(dict.fromkeys(c for t in choosers for c in t.declared_objectives.metrics)),
-        help="; ".join(
-            f"{t.name} only: the objective maximised (default {t.declared_objectives.default})"
-            for t in choosers
-        ),
+    choices = tuple(dict.fromkeys(c for t in choosers for c in t.declared_objectives.metrics))
+    text = "; ".join(
+        f"{t.name} only: the objective maximised (default {t.declared_objectives.default})"
+        for t in choosers
     )
-    parser.add_argument(
-        "--method",
-        required=True,
-        metavar="METHOD",
-        help=(
-            f"search method: {', '.join(available_methods())} (policy as policy:RUN_DIR; "
-            "ppo, sac and policy come from train/)"
-        ),
+    parser.add_argument("--objective", choices=choices, help=text)
+    text = (
+        f"search method: {', '.join(available_methods())} (policy as policy:RUN_DIR; "
+        "ppo, sac and policy come from train/)"
     )
-    parser.add_argument(
-        "--budget",
-        required=True,
-        type=int,
-        metavar="N",
-        help=f"model evaluations per seed (1 to {MAX_BUDGET:,})",
-    )
-    parser.add_argument(
-        "--seeds", required=True, type=int, nargs="+", metavar="SEED", help="one run per seed"
-    )
+    parser.add_argument("--method", required=True, metavar="METHOD", help=text)
+    text = f"model evaluations per seed (1 to {MAX_BUDGET:,})"
+    parser.add_argument("--budget", required=True, type=int, metavar="N", help=text)
+    text = "one run per seed"
+    parser.add_argument("--seeds", required=True, type=int, nargs="+", metavar="SEED", help=text)
     parser.add_argument("--out", required=True, metavar="DIR", help="directory for the records")
-    parser.add_argument(
-        "--swarm-size",
-        type=int,
-        metavar="N",
-        help=f"strokes per iteration: PSO particles / random-search batch (default 40, at most "
-        f"{MAX_BATCH:,})",
-    )
+    text = "strokes per iteration: PSO particles / random-search batch (default 40, at most"
+    parser.add_argument("--swarm-size", type=int, metavar="N", help=f"{text} {MAX_BATCH:,})")
     values = "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
     pairs = {
         "--method-config": "method settings, e.g. velocity_clamp=0.2 boundary=reflect inertia=linear-decreasing",
@@ -203,53 +172,44 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     }
     for option, what in pairs.items():
         add_pairs_argument(parser, option, f"{what} {values}")
-    add_insect_argument(parser)
-    add_run_arguments(parser, "--backend", "--device")
-    parser.add_argument(
-        "--polish",
-        choices=POLISH_METHODS,
-        help="local polish of each seed's best feasible stroke (agents/polish.py): "
+    add_run_arguments(parser, "--insect", "--backend", "--device")
+    text = (
+        "local polish of each seed's best feasible stroke (agents/polish.py): "
         f"default {', '.join(f'{k} for {m}' for m, k in POLISH_DEFAULTS.items())}, none for "
         "the other methods; its evaluations count in --budget (the method setting "
-        "polish_share sets its part)",
+        "polish_share sets its part)"
     )
-    parser.add_argument(
-        "--warm-start",
-        choices=WARM_STARTS,
-        default="none",
-        help="table: polish the reference table's optimum at this condition and its grid "
+    parser.add_argument("--polish", choices=POLISH_METHODS, help=text)
+    text = (
+        "table: polish the reference table's optimum at this condition and its grid "
         f"neighbours' first, on {WARM_SHARE:g} of --budget (counted in it; the job's "
         "initial strokes, docs/reference.md); an error where the table has no such point. "
-        "Default none: a cold start",
+        "Default none: a cold start"
     )
-    parser.add_argument(
-        "--reading",
-        metavar="NAME",
-        help="run under a reading of the paper's open decisions (eval/studies/readings/): "
+    parser.add_argument("--warm-start", choices=WARM_STARTS, default="none", help=text)
+    text = (
+        "run under a reading of the paper's open decisions (eval/studies/readings/): "
         "paper (the reading that reproduces the most claims, docs/reproduction.md), a single "
         "such as hover-none, or singles joined by '+'; sets its model options as env "
-        "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "
-        "objective; one that also changes the model runs with a warning)",
+        "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes "
+        "only that objective is refused for any other objective; one that also changes the "
+        "model runs with a warning)"
     )
-    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    parser.add_argument("--reading", metavar="NAME", help=text)
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 
-def add_insect_argument(parser: argparse.ArgumentParser) -> None:
-    """``--insect FILE`` (shared with ``study``), read when the command line is parsed."""
-    parser.add_argument(
-        "--insect",
-        metavar="FILE",
-        action=checked_by(load_insect),
-        help="YAML file of the insect: the fields that differ from the paper's specimen "
+#: The options of the commands that run jobs (optimize, study, reference, speed-change,
+#: crosscheck): the argparse keywords of each (``--no-cache`` sets ``args.cache``; ``--insect``,
+#: optimize's and study's, is read when the command line is parsed).
+RUN_OPTIONS: dict[str, dict[str, Any]] = {
+    "--insect": {
+        "metavar": "FILE",
+        "action": checked_by(load_insect),
+        "help": "YAML file of the insect: the fields that differ from the paper's specimen "
         "(body_mass, fore: {length, mean_chord, mass, planform, coefficients}, hind: {...}; "
         "docs/envs.md, e.g. examples/orthetrum_cancellatum.yaml); part of each record's key",
-    )
-
-
-#: The options of every command that runs jobs (optimize, study, reference, speed-change): the
-#: argparse keywords of each (``--no-cache`` sets ``args.cache``).
-RUN_OPTIONS: dict[str, dict[str, Any]] = {
+    },
     "--backend": {
         "choices": BACKENDS,
         "help": "the model's implementation (env keyword backend; default numba): the results "
@@ -280,6 +240,7 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         "the new records replace the old ones (each file written atomically), said in the "
         "last line",
     },
+    "--quiet": {"action": "store_true", "help": "no progress display"},
 }
 
 
@@ -292,12 +253,9 @@ def add_run_arguments(parser: argparse.ArgumentParser, *flags: str) -> None:
 def run_options(args: argparse.Namespace) -> dict[str, Any]:
     """The runner's keywords (``run_jobs``, ``run_plan``) of ``--scheduler``, ``--no-cache``,
     ``--rerun`` and ``--quiet`` as given."""
-    return {
-        "scheduler": args.scheduler,
-        "cache": args.cache,
-        "rerun": args.rerun,
-        "progress": not args.quiet,
-    }
+    return dict(
+        scheduler=args.scheduler, cache=args.cache, rerun=args.rerun, progress=not args.quiet
+    )
 
 
 def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[PreparedJob]:
@@ -307,8 +265,7 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
     tasks = _tasks()
     task = next(t for t in tasks if t.name == args.task)  # one of them: argparse's choices
     declared = task.declared_condition
-    condition = getattr(args, declared.keyword)
-    if condition is None:
+    if (condition := getattr(args, declared.keyword)) is None:
         given = [
             t.condition_flag
             for t in tasks
@@ -354,8 +311,7 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
             _check_reading_applies(args.reading, reading, task, objective)
             if objective is not None:
                 objective = reading.objective(objective)
-        clash = sorted(set(env_kwargs) & set(reading_kwargs))
-        if clash:
+        if clash := sorted(set(env_kwargs) & set(reading_kwargs)):
             raise ValueError(
                 f"--reading {args.reading} sets {clash}; give them there or in "
                 "--env-kwargs, not both"
@@ -369,16 +325,8 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
                 method_config.update(warm_start(task.name, condition, with_objective))
             except ValueError as error:
                 raise ValueError(f"--warm-start table: {error}") from None
-        return prepare(
-            args.method,
-            task,
-            condition,
-            args.budget,
-            args.seeds,
-            objective=objective,
-            env_kwargs=env_kwargs,
-            method_config=method_config,
-        )
+        options = dict(objective=objective, env_kwargs=env_kwargs, method_config=method_config)
+        return prepare(args.method, task, condition, args.budget, args.seeds, **options)
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
 
@@ -391,10 +339,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if "insect" in jobs[0].env_kwargs:
             print(f"insect: {describe_insect(jobs[0].env_kwargs['insect'])}", file=sys.stderr)
     # --out as given: an empty one is the runner's to refuse, not the current folder
-    summary = run_reporting(
-        parser,
-        lambda: run_jobs(jobs, args.out, **run_options(args), summary_csv=True),
-    )
+    options = run_options(args)
+    summary = run_reporting(parser, lambda: run_jobs(jobs, args.out, **options, summary_csv=True))
     if isinstance(summary, int):
         return summary
     for record in (summary.records[p.job.key] for p in jobs):

@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+import tandem_env
+from agents import verify
 from agents.harness import PreparedJob, prepare
 from agents.jobs import Continuation, Job
 from agents.progress import CommandProgress, Phase
@@ -31,12 +33,12 @@ from agents.selection import best_index
 from agents.store import RecordStore, read_record_files
 from agents.tasks import get_task, task_of
 from eval.optimize import add_run_arguments, run_options, run_reporting
-from eval.reference_candidates import candidates
 from eval.studies.report import table_head, table_row
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
     config_fingerprint,
+    problem_fingerprint,
     reference_path,
 )
 from tandem_env.envs.registration import config_class
@@ -60,33 +62,33 @@ PRESET = "reference"
 #: Where the records and the figure go by default.
 DEFAULT_OUT = Path("results") / "reference"
 
+PointKey = tuple[str, str, str, float]
+"""(env id, objective, planform, condition) of a grid point."""
+Jobs = Mapping[PointKey, Sequence[PreparedJob]]
+"""A point's jobs (one per seed) per grid point, as :func:`plan` makes them."""
+Found = Mapping[PointKey, Sequence[Record]]
+"""Records per grid point."""
+Rounds = Sequence[Mapping[PointKey, Job]]
+"""The continuation rounds' jobs, a job per point each."""
+
 
 def plan(
     seeds: Sequence[int] = SEEDS,
     budgets: Mapping[str, int] = BUDGETS,
     grid: Mapping[str, tuple[tuple[str, ...], tuple[float, ...]]] = REFERENCE_GRID,
     env_kwargs: Mapping[str, Any] | None = None,
-) -> dict[tuple[str, str, str, float], list[PreparedJob]]:
+) -> dict[PointKey, list[PreparedJob]]:
     """The jobs of the table: per (env id, objective, planform, condition), one per seed."""
-    jobs: dict[tuple[str, str, str, float], list[PreparedJob]] = {}
+    jobs: dict[PointKey, list[PreparedJob]] = {}
     for env_id, (objectives, conditions) in grid.items():
         task = get_task(task_of(env_id))
         for objective, planform, condition in product(objectives, PLANFORMS, conditions):
-            jobs[env_id, objective, planform, condition] = prepare(
-                METHOD,
-                task,
-                condition,
-                budgets[env_id],
-                seeds,
-                objective=objective if task.declared_objectives.keyword else None,
-                env_kwargs={"planform": planform, **(env_kwargs or {})},
-                preset=PRESET,
-            )
+            key = (env_id, objective, planform, condition)
+            options = {"env_kwargs": {"planform": planform, **(env_kwargs or {})}, "preset": PRESET}
+            options["objective"] = objective if task.declared_objectives.keyword else None
+            jobs[key] = prepare(METHOD, task, condition, budgets[env_id], seeds, **options)
     return jobs
 
-
-PointKey = tuple[str, str, str, float]
-"""(env id, objective, planform, condition) of a grid point."""
 
 #: Tasks whose feasible set grows with the condition: the available power only caps P/m, so a
 #: stroke that flies at P_avail flies, with the same forces, at every higher P_avail, and a
@@ -116,10 +118,7 @@ def _best(records: Sequence[Record], env_id: str, objective: str) -> Record:
 
 
 def continuation(
-    jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    found: Mapping[PointKey, Sequence[Record]] | None,
-    index: int = 0,
-    rule: Continuation = CONTINUATION,
+    jobs: Jobs, found: Found | None, index: int = 0, rule: Continuation = CONTINUATION
 ) -> dict[PointKey, Job]:
     """Continuation round ``index`` (0, 1, ...): per point, one job of ``rule`` warm-started from
     the best strokes ``found`` at this point, its grid neighbours and, for a task in
@@ -135,9 +134,7 @@ def continuation(
         ]
         if env_id in NESTED_TASKS:
             sources += [(env_id, o, planform, condition) for o in objectives if o != objective]
-        strokes = list(
-            dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)
-        )
+        strokes = [*dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)]
         continued[key] = rule.job(prepared[0].job, strokes if found is not None else None, index)
     return continued
 
@@ -148,7 +145,7 @@ class ReferencePlan:
     ``rule`` until it stops. Running, it keeps the rounds' jobs (:attr:`rounds`) and gains
     (:attr:`convergence`), said on stderr unless ``quiet``."""
 
-    jobs: Mapping[PointKey, Sequence[PreparedJob]]
+    jobs: Jobs
     rule: Continuation = CONTINUATION
     quiet: bool = True
     rounds: list[dict[PointKey, Job]] = field(default_factory=list, init=False)
@@ -188,21 +185,17 @@ class ReferencePlan:
                 return
 
 
-def _pool(found: Mapping[PointKey, Sequence[Record]], key: PointKey) -> list[Record]:
+def _pool(found: Found, key: PointKey) -> list[Record]:
     """The strokes that compete for ``key``: its own and, for a task in :data:`NESTED_TASKS`,
     every stroke found at a lower or equal condition for any objective (same planform)."""
     env_id, _, planform, condition = key
     if env_id not in NESTED_TASKS:
         return list(found[key])
-    return [
-        r
-        for (e, _, p, c), rs in found.items()
-        if (e, p) == (env_id, planform) and c <= condition
-        for r in rs
-    ]
+    keys = [k for k in found if (k[0], k[2]) == (env_id, planform) and k[3] <= condition]
+    return [r for k in keys for r in found[k]]
 
 
-def best_objectives(found: Mapping[PointKey, Sequence[Record]]) -> dict[PointKey, float]:
+def best_objectives(found: Found) -> dict[PointKey, float]:
     """Each point's best feasible objective among what competes for it (NaN: none flies)."""
     best = {key: _best(_pool(found, key), key[0], key[1]) for key in found}
     return {k: _value(b, k[0], k[1]) if b.feasible else float("nan") for k, b in best.items()}
@@ -230,7 +223,7 @@ def _point(
     key: PointKey,
     search: Sequence[Record],
     rounds: Sequence[Record],
-    found: Mapping[PointKey, Sequence[Record]],
+    found: Found,
     candidates: Sequence[Record] = (),
 ) -> dict[str, Any]:
     """One grid point: the best stroke competing for it (:func:`_pool`)."""
@@ -265,9 +258,7 @@ def _point(
 
 
 def gather(
-    jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    rounds: Sequence[Mapping[PointKey, Job]],
-    records: Mapping[str, Record],
+    jobs: Jobs, rounds: Rounds, records: Mapping[str, Record]
 ) -> dict[PointKey, list[Record]]:
     """Every record of each point: its seeds' then its continuation rounds'."""
     return {
@@ -277,11 +268,11 @@ def gather(
 
 
 def build_table(
-    jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    rounds: Sequence[Mapping[PointKey, Job]],
+    jobs: Jobs,
+    rounds: Rounds,
     records: Mapping[str, Record],
     provenance: Mapping[str, Any],
-    candidates: Mapping[PointKey, Sequence[Record]] | None = None,
+    candidates: Found | None = None,
 ) -> dict[str, Any]:
     """The reference table (format :data:`REFERENCE_FORMAT`) from every phase's records and
     the ``candidates`` (:func:`candidates`) competing beside them."""
@@ -319,30 +310,59 @@ def build_table(
     }
 
 
+def candidates(records: Iterable[Record], jobs: Jobs) -> dict[PointKey, list[Record]]:
+    """Strokes of other runs (``--candidates``, docs/reference.md; any method: a policy's, a
+    study's) per grid point they compete for: a feasible record of the table's env at a grid
+    condition, of the problem of one of the table's series there (its fingerprint: the same
+    model, insect and planform), competes for every objective of that planform. It must be this
+    model's (its revision, :attr:`~agents.records.Record.model`), its stroke must replay,
+    through the env, to its record (:func:`agents.verify.refuted`, as every reused record does)
+    and fly; any other record is refused (ValueError)."""
+    configs = {
+        k: config_class(k[0]).from_kwargs(**dict(p[0].job.env_kwargs)) for k, p in jobs.items()
+    }
+    fingerprints = {key: problem_fingerprint(config) for key, config in configs.items()}
+    kept: dict[PointKey, list[Record]] = {}
+    revision = tandem_env.physics.MODEL_REVISION
+    for record in records:
+        env_id, condition = record.env_id, record.job.condition
+        mine = config_fingerprint(config_class(env_id), record.results["env"])
+        keys = [k for k in jobs if (k[0], k[3]) == (env_id, condition) and fingerprints[k] == mine]
+        why = (
+            f"it was made by model revision {record.model}, not this model's {revision} "
+            "(tandem_env.physics.MODEL_REVISION): rerun it"
+            if record.model != revision
+            else "it does not fly"
+            if not record.feasible
+            else f"no series of the table at {env_id} {condition:g} with its model and insect"
+            if not keys
+            else None
+        )
+        if why is None and (
+            refuted := verify.refuted({record.key: record}, {record.key: record.job})
+        ):
+            why = f"its stroke does not replay to its record ({refuted[record.key]})"
+        if why is not None:
+            raise ValueError(
+                f"candidate record {record.key} ({record.job.label()}): {why}; allowed: a "
+                "feasible record of the table's env and model at a grid condition"
+            )
+        for key in keys:
+            kept.setdefault(key, []).append(record)
+    return kept
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--out",
-        type=Path,
-        default=DEFAULT_OUT,
-        help=f"the optimisations' records, figure and table (default {DEFAULT_OUT})",
+    text = f"the optimisations' records, figure and table (default {DEFAULT_OUT})"
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=text)
+    text = "where the table goes (default: the packaged tandem_env/data/reference_optima.json)"
+    parser.add_argument("--table", type=Path, default=None, help=text)
+    text = (
+        "record files or folders of other runs (e.g. eval optimize --out) whose strokes "
+        "compete for the table's points, with their provenance (docs/reference.md)"
     )
-    parser.add_argument(
-        "--table",
-        type=Path,
-        default=None,
-        help="where the table goes (default: the packaged tandem_env/data/reference_optima.json)",
-    )
-    parser.add_argument(
-        "--candidates",
-        type=Path,
-        nargs="+",
-        default=[],
-        metavar="PATH",
-        help="record files or folders of other runs (e.g. eval optimize --out) whose strokes "
-        "compete for the table's points, with their provenance (docs/reference.md)",
-    )
-    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--candidates", type=Path, nargs="+", default=[], metavar="PATH", help=text)
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 
 def provenance(
@@ -401,34 +421,27 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         store = RecordStore(args.out)
     except ValueError as error:
         parser.error(str(error))
+    title = f"{NAME} (the reference table -> {table_path})"
+    detail = f"{METHOD}, {len(jobs)} grid points"
     command = CommandProgress(
-        f"{NAME} (the reference table -> {table_path})",
-        store,
-        cache=args.cache,
-        enabled=not args.quiet,
-        detail=f"{METHOD}, {len(jobs)} grid points",
-        rerun=args.rerun,
+        title, store, cache=args.cache, enabled=not args.quiet, detail=detail, rerun=args.rerun
     )
     command.announce(look_ahead(table_plan, store, args.cache))
-    run = run_reporting(
-        parser,
-        lambda: run_plan(table_plan, store, **run_options(args), command=command, summary_csv=True),
-    )
+    options = dict(run_options(args), command=command, summary_csv=True)
+    run = run_reporting(parser, lambda: run_plan(table_plan, store, **options))
     if isinstance(run, int):
         return run
     rounds = table_plan.rounds
     every = [p.job for prepared in jobs.values() for p in prepared]
     every += [job for r in rounds for job in r.values()]
-    table = build_table(
-        jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence), extra
-    )
+    made = provenance(every, run.records, table_plan.convergence)
+    table = build_table(jobs, rounds, run.records, made, extra)
     write_json_atomic(table_path, table)
     # The table as people read it: Markdown (OUT/reference.md) and a figure (OUT/reference.png).
     write_text_atomic(Path(args.out) / "reference.md", reference_markdown(table))
     write_reference_figure(table, Path(args.out) / "reference.png")
     for series in table["series"]:
-        weak = [p for p in series["points"] if not p["feasible"]]
-        if weak:
+        if weak := [p for p in series["points"] if not p["feasible"]]:
             print(
                 f"warning: {series['env_id']} {series['objective']} {series['planform']}: no "
                 f"feasible optimum at {[p['condition'] for p in weak]}",
@@ -439,12 +452,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 
 # Okabe-Ito colours, one per objective (readable in colour-blind vision and in grey).
-_COLOURS = {
-    "efficiency": "#0072B2",
-    "vertical": "#0072B2",
-    "horizontal": "#D55E00",
-    "resultant": "#009E73",
-}
+_COLOURS = dict(efficiency="#0072B2", vertical="#0072B2", horizontal="#D55E00", resultant="#009E73")
 _LINES = {"tear-drop": "-", "real": "--"}
 
 
@@ -455,8 +463,7 @@ def _condition_header(env_id: str) -> str:
 
 
 def _spread(point: Mapping[str, Any]) -> str:
-    values = [v for v in point["seed_objectives"] if v is not None]
-    if not values:
+    if not (values := [v for v in point["seed_objectives"] if v is not None]):
         return "none feasible"
     return f"{min(values):.4g}-{max(values):.4g} ({len(values)}/{len(point['seed_objectives'])})"
 
@@ -533,15 +540,10 @@ def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
         for series in (s for s in table["series"] if s["env_id"] == env_id):
             colour = _COLOURS.get(series["objective"], "#000000")
             points = [p for p in series["points"] if p["feasible"]]
-            ax.plot(
-                [p["condition"] for p in points],
-                [p["objective"] for p in points],
-                _LINES.get(series["planform"], ":"),
-                color=colour,
-                marker="o",
-                markersize=3,
-                label=f"{series['objective']}, {series['planform']}",
-            )
+            x, y = ([p[k] for p in points] for k in ("condition", "objective"))
+            line = _LINES.get(series["planform"], ":")
+            label = f"{series['objective']}, {series['planform']}"
+            ax.plot(x, y, line, color=colour, marker="o", markersize=3, label=label)
             for p in series["points"]:
                 seeds = [v for v in p["seed_objectives"] if v is not None]
                 ax.plot([p["condition"]] * len(seeds), seeds, ".", color=colour, alpha=0.25)

@@ -104,8 +104,7 @@ def show(
             for cursor in cursors:
                 cursor.set_xdata([cycle[k], cycle[k]])
 
-    picture = out / f"{record.key}.png"
-    movie = out / f"{record.key}.{fmt}"
+    picture, movie = (out / f"{record.key}.{suffix}" for suffix in ("png", fmt))
     place(0)
     with atomic_path(picture) as tmp:
         figure.savefig(tmp, dpi=DPI)
@@ -119,34 +118,23 @@ def show(
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("record", metavar="RECORD", help="a record file (records/<key>.json)")
-    parser.add_argument(
-        "--out", default=None, metavar="DIR", help="output folder (default: show/ beside records/)"
-    )
-    parser.add_argument(
-        "--format",
-        choices=tuple(ANIMATION_FORMATS),
-        default="gif",
-        help="animation format (default gif; mp4 needs ffmpeg)",
-    )
-    parser.add_argument(
-        "--frames",
-        type=int,
-        default=DEFAULT_FRAMES,
-        metavar="N",
-        help=f"frames per cycle, 8 to 720 (default {DEFAULT_FRAMES})",
-    )
-    parser.add_argument(
-        "--fps", type=int, default=DEFAULT_FPS, help=f"frames per second (default {DEFAULT_FPS})"
-    )
+    text = "output folder (default: show/ beside records/)"
+    parser.add_argument("--out", default=None, metavar="DIR", help=text)
+    text = "animation format (default gif; mp4 needs ffmpeg)"
+    parser.add_argument("--format", choices=tuple(ANIMATION_FORMATS), default="gif", help=text)
+    for flag, default, metavar, text in (
+        ("--frames", DEFAULT_FRAMES, "N", f"frames per cycle, 8 to 720 (default {DEFAULT_FRAMES})"),
+        ("--fps", DEFAULT_FPS, None, f"frames per second (default {DEFAULT_FPS})"),
+    ):
+        parser.add_argument(flag, type=int, default=default, metavar=metavar, help=text)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from matplotlib import animation
 
-    if not 8 <= args.frames <= 720:
-        parser.error(f"--frames {args.frames}; allowed: an integer from 8 to 720")
-    if not 1 <= args.fps <= 100:
-        parser.error(f"--fps {args.fps}; allowed: an integer from 1 to 100")
+    for flag, low, high in (("--frames", 8, 720), ("--fps", 1, 100)):
+        if not low <= (value := getattr(args, flag[2:])) <= high:
+            parser.error(f"{flag} {value}; allowed: an integer from {low} to {high}")
     if not animation.writers.is_available(ANIMATION_FORMATS[args.format]):
         parser.error(
             f"--format {args.format} needs the {ANIMATION_FORMATS[args.format]} program, which "

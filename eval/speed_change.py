@@ -56,14 +56,7 @@ STEADY_GRID: tuple[float, ...] = tuple(
     float(v) for v in np.arange(LEVEL_FLIGHT_ENVELOPE[0], LEVEL_FLIGHT_ENVELOPE[1] + 1e-9, 0.25)
 )
 #: The reward's parts, summed per episode: the ``info["reward_<term>"]`` terms and the penalty.
-REWARD_PARTS: tuple[str, ...] = (
-    "progress",
-    "speed",
-    "altitude",
-    "energy",
-    "termination",
-    "penalty",
-)
+REWARD_PARTS: tuple[str, ...] = tuple("progress speed altitude energy termination penalty".split())
 #: Relative speed error counted as "at the target" [-].
 TARGET_WITHIN = 0.05
 FIRST_SEED = 1000
@@ -126,9 +119,8 @@ class SB3Policy:
                 f"{name.upper()} run (or give it with --{policy.algo})"
             )
         if policy.env_id != SPEED_CHANGE_ID:
-            raise ValueError(
-                f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"
-            )
+            msg = f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"
+            raise ValueError(msg)
         if policy.normalizer_path is not None:
             raise ValueError(
                 f"{run_dir} normalised its observations (VecNormalize); allowed here: runs with "
@@ -207,10 +199,8 @@ def optima_records(
 def steady_optima(config: SpeedChangeConfig, **run: Any) -> SteadyPolicy:
     """The steady schedule of the level-flight optima of :func:`optima_records` (``run``)."""
     records = optima_records(config, **run)
-    return SteadyPolicy(
-        np.array([r.job.condition for r in records], dtype=np.float64),
-        np.array([r.normalised_stroke for r in records], dtype=np.float64),
-    )
+    speeds = np.array([r.job.condition for r in records], dtype=np.float64)
+    return SteadyPolicy(speeds, np.array([r.normalised_stroke for r in records], dtype=np.float64))
 
 
 #: The most evaluation episodes [-]: they are flown as one vector env, one model call of that
@@ -250,9 +240,8 @@ def run_episodes(
     """Fly one episode per seed with ``policy``: sub-env i of the native vector env reset with
     ``seeds[i]``, one batched model call per cycle; each sub-env's first episode."""
     n = len(seeds)
-    envs = gym.make_vec(
-        SPEED_CHANGE_ID, num_envs=n, vectorization_mode="vector_entry_point", **(env_kwargs or {})
-    )
+    mode = "vector_entry_point"  # the native vector env: one model call for all sub-envs
+    envs = gym.make_vec(SPEED_CHANGE_ID, num_envs=n, vectorization_mode=mode, **(env_kwargs or {}))
     states = ("time", "forward_speed", "altitude", "distance")  # the start state, then each cycle's
     try:
         observations, info = envs.reset(seed=[int(s) for s in seeds])
@@ -322,35 +311,31 @@ def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str,
     out = []
     for policy in dict.fromkeys(e["policy"] for e in episodes):
         rows = [e for e in episodes if e["policy"] == policy]
-        numbers = [key for key in rows[0] if key != "policy"]
-        values = {key: np.array([r[key] for r in rows], np.float64) for key in numbers}
-        reached = values["time_to_target_s"][np.isfinite(values["time_to_target_s"])]
-        per_metre = values["energy_per_metre_mJ_m"]
-        per_metre = per_metre[np.isfinite(per_metre)]
-        mean = {key: float(v.mean()) for key, v in values.items()}
-        out.append(
-            {
-                "policy": policy,
-                "episodes": len(rows),
-                "return_mean": mean["return"],
-                "return_std": float(values["return"].std()),
-                "terminated_share": mean["terminated"],
-                "reached_share": reached.size / len(rows),
-                "time_to_target_median_s": float(np.median(reached)) if reached.size else math.nan,
-                "final_speed_error_mean_m_s": mean["final_speed_error_m_s"],
-                "energy_per_metre_mean_mJ_m": float(per_metre.mean())
-                if per_metre.size
-                else math.nan,
-                "mean_abs_altitude_mean_mm": mean["mean_abs_altitude_mm"],
-                "flight_time_mean_s": mean["flight_time_s"],
-                "mean_power_W_kg": mean["mean_power_W_kg"],
-                **{
-                    f"return_{key}_mean": mean[f"return_{key}"]
-                    for key in REWARD_PARTS
-                    if f"return_{key}" in mean
-                },
-            }
+        values = {k: np.array([r[k] for r in rows], np.float64) for k in rows[0] if k != "policy"}
+        reached, metre = (
+            v[np.isfinite(v)] for v in (values["time_to_target_s"], values["energy_per_metre_mJ_m"])
         )
+        mean = {key: float(v.mean()) for key, v in values.items()}
+        row = {
+            "policy": policy,
+            "episodes": len(rows),
+            "return_mean": mean["return"],
+            "return_std": float(values["return"].std()),
+            "terminated_share": mean["terminated"],
+            "reached_share": reached.size / len(rows),
+            "time_to_target_median_s": float(np.median(reached)) if reached.size else math.nan,
+            "final_speed_error_mean_m_s": mean["final_speed_error_m_s"],
+            "energy_per_metre_mean_mJ_m": float(metre.mean()) if metre.size else math.nan,
+            "mean_abs_altitude_mean_mm": mean["mean_abs_altitude_mm"],
+            "flight_time_mean_s": mean["flight_time_s"],
+            "mean_power_W_kg": mean["mean_power_W_kg"],
+            **{
+                f"return_{key}_mean": mean[f"return_{key}"]
+                for key in REWARD_PARTS
+                if f"return_{key}" in mean
+            },
+        }
+        out.append(row)
     return out
 
 
@@ -423,51 +408,29 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    for flag, kind, default, text in (
+        ("--episodes", int, 32, f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"),
+        ("--first-seed", int, FIRST_SEED, f"first evaluation seed ({FIRST_SEED})"),
+        ("--optima-budget", int, 12000, "model evaluations per level-flight optimum (12000)"),
+        ("--out", Path, Path("results/speed-change"), "output folder"),
+        ("--figure", Path, None, "PNG of one episode for every policy"),
+        ("--figure-episode", int, 0, "the evaluation episode the figure shows (index, default 0)"),
+    ):
+        parser.add_argument(flag, type=kind, default=default, help=text)
+    text = f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})"
+    parser.add_argument("--optimiser", default=DEFAULT_OPTIMISER, help=text)
+    text = "speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)"
     parser.add_argument(
-        "--episodes", type=int, default=32, help=f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"
-    )
-    parser.add_argument(
-        "--first-seed", type=int, default=FIRST_SEED, help=f"first evaluation seed ({FIRST_SEED})"
-    )
-    parser.add_argument(
-        "--optimiser",
-        default=DEFAULT_OPTIMISER,
-        help=f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})",
-    )
-    parser.add_argument(
-        "--optima-budget",
-        type=int,
-        default=12000,
-        help="model evaluations per level-flight optimum (12000)",
-    )
-    parser.add_argument(
-        "--grid",
-        type=float,
-        nargs="+",
-        default=list(STEADY_GRID),
-        metavar="V",
-        help="speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)",
+        "--grid", type=float, nargs="+", default=list(STEADY_GRID), metavar="V", help=text
     )
     for algo in ("ppo", "sac"):
         text = f"python -m train {algo.upper()} run folders"
         parser.add_argument(f"--{algo}", nargs="+", default=[], metavar="RUN_DIR", help=text)
-    parser.add_argument(
-        "--model", choices=("final", "best"), default="final", help="which saved model (final)"
-    )
-    parser.add_argument(
-        "--out", type=Path, default=Path("results/speed-change"), help="output folder"
-    )
-    parser.add_argument("--figure", type=Path, help="PNG of one episode for every policy")
-    parser.add_argument(
-        "--figure-episode",
-        type=int,
-        default=0,
-        help="which evaluation episode the figure shows (index, default 0)",
-    )
+    text = "which saved model (final)"
+    parser.add_argument("--model", choices=("final", "best"), default="final", help=text)
     from eval.optimize import add_run_arguments  # eval.optimize imports the studies: not here
 
-    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
-    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
 
 
 def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
@@ -475,9 +438,8 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
     from agents.harness import prepare
 
     if len(set(args.grid)) != len(args.grid):
-        raise ValueError(
-            f"--grid {' '.join(shown(v, *args.grid) for v in args.grid)}: allowed: distinct speeds"
-        )
+        grid = " ".join(shown(v, *args.grid) for v in args.grid)
+        raise ValueError(f"--grid {grid}: allowed: distinct speeds")
     kwargs = level_kwargs(config)
     for speed in args.grid:
         try:  # the harness's own checks: method, budget, speed within the level task's range
@@ -490,7 +452,7 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from eval.optimize import run_reporting
+    from eval.optimize import run_options, run_reporting
 
     if not 1 <= args.episodes <= MAX_EPISODES:
         parser.error(f"--episodes {args.episodes}; allowed: 1 to {MAX_EPISODES:,}")
@@ -520,20 +482,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         policies += [SB3Policy.load(run_dir, name, args.model) for run_dir, name in trained]
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
-    steady = run_reporting(
-        parser,
-        lambda: steady_optima(
-            config,  # type: ignore[arg-type]
-            speeds=args.grid,
-            method=args.optimiser,
-            budget=args.optima_budget,
-            cache_dir=args.out / "optima",
-            scheduler=args.scheduler,
-            progress=not args.quiet,
-            record_cache=args.cache,
-            rerun=args.rerun,
-        ),
-    )
+    # the runner's options as optima_records names them (--no-cache: record_cache)
+    run = dict(run_options(args), speeds=args.grid, budget=args.optima_budget)
+    run.update(method=args.optimiser, cache_dir=args.out / "optima", record_cache=run.pop("cache"))
+    steady = run_reporting(parser, lambda: steady_optima(config, **run))  # type: ignore[arg-type]
     if isinstance(steady, int):
         return steady
     policies.insert(1, steady)

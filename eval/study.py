@@ -13,7 +13,7 @@ from agents.progress import CommandProgress
 from agents.runner import find_records, look_ahead, run_plan
 from agents.store import RecordStore
 from eval.figures import FORMATS
-from eval.optimize import add_insect_argument, add_run_arguments, run_reporting
+from eval.optimize import add_run_arguments, run_reporting
 from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD
 from eval.studies.presets import OVERRIDES, STUDY_PRESETS, overridden
@@ -85,9 +85,8 @@ examples:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("study", choices=tuple(campaigns()), help="which study to run")
-    parser.add_argument(
-        "--preset", choices=tuple(STUDY_PRESETS), default="quick", help="conditions, seeds, budgets"
-    )
+    text = "conditions, seeds, budgets"
+    parser.add_argument("--preset", choices=tuple(STUDY_PRESETS), default="quick", help=text)
     shared = "wing-shape studies, readings"
     helps = {
         "speeds": ("V", float, f"the level-flight sweep [m/s] (speed and {shared})"),
@@ -104,39 +103,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         f"; {c.default_out} for {', '.join(c.names)}" for c in rest
     )
     parser.add_argument("--out", default=None, metavar="DIR", help=f"output directory ({out})")
-    parser.add_argument(
-        "--method",
-        action="append",
-        metavar="SPEC",
-        help="harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several "
-        "side by side (default: the preset's method)",
-    )
-    add_insect_argument(parser)
-    add_run_arguments(parser, "--backend", "--device", "--scheduler", "--no-cache", "--rerun")
-    parser.add_argument(
-        "--workers",
-        type=int,
-        default=1,
-        metavar="N",
-        help="N > 1 is short for --scheduler local:N; 1 (default) runs in this process",
-    )
-    parser.add_argument(
-        "--reading",
-        action="append",
-        metavar="NAME",
-        help="; ".join(c.reading_help for c in CAMPAIGNS),
-    )
+    text = "harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several side"
+    text += " by side (default: the preset's method)"
+    parser.add_argument("--method", action="append", metavar="SPEC", help=text)
+    add_run_arguments(parser, "--insect", "--backend", "--device", "--scheduler")
+    add_run_arguments(parser, "--no-cache", "--rerun", "--quiet")
+    text = "N > 1 is short for --scheduler local:N; 1 (default) runs in this process"
+    parser.add_argument("--workers", type=int, default=1, metavar="N", help=text)
+    text = "; ".join(c.reading_help for c in CAMPAIGNS)
+    parser.add_argument("--reading", action="append", metavar="NAME", help=text)
     for campaign in CAMPAIGNS:
         for flag, option in campaign.options.items():
             parser.add_argument(flag, **option)
-    parser.add_argument(
-        "--format",
-        choices=FORMATS,
-        default=FORMATS[0],
-        help=f"file format of the figures (default {FORMATS[0]}; svg and pdf are vector "
-        "graphics, for print)",
-    )
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    text = f"file format of the figures (default {FORMATS[0]}; svg and pdf are vector graphics,"
+    parser.add_argument("--format", choices=FORMATS, default=FORMATS[0], help=f"{text} for print)")
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

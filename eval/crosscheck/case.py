@@ -119,11 +119,8 @@ class Resolution:
         """This resolution and the ones that check its convergence: 2/3 and 4/3 of its time
         steps, and 1.5x chordwise by 2x spanwise panels (48 steps, 4x8: 32, 64 and 6x16)."""
         steps = [max(4, round(self.steps_per_beat * k)) for k in (2 / 3, 4 / 3)]
-        finer = replace(
-            self,
-            chordwise=min(16, math.ceil(1.5 * self.chordwise)),
-            spanwise=min(64, 2 * self.spanwise),
-        )
+        chordwise = min(16, math.ceil(1.5 * self.chordwise))
+        finer = replace(self, chordwise=chordwise, spanwise=min(64, 2 * self.spanwise))
         return (self, *(replace(self, steps_per_beat=s) for s in steps), finer)
 
 
@@ -254,15 +251,11 @@ BASE_ELEVATION_OFFSET = {"fore": 5.0, "hind": 0.0}
 
 def base_stroke(**overrides: float) -> np.ndarray:
     """The base case's (28,) stroke with named parameters (``fore_sweep_amplitude=40``) replaced."""
-    values = {
-        f"{pair}_{name}": (BASE_ELEVATION_OFFSET[pair] if name == "elevation_offset" else value)
-        for pair in PAIRS
-        for name, value in BASE_WING.items()
-    }
+    values = {f"{pair}_{name}": value for pair in PAIRS for name, value in BASE_WING.items()}
+    values |= {f"{pair}_elevation_offset": v for pair, v in BASE_ELEVATION_OFFSET.items()}
     if unknown := sorted(set(overrides) - set(values)):
-        raise ValueError(
-            f"--stroke: unknown parameter(s) {unknown}; allowed: {', '.join(PARAMETER_NAMES)}"
-        )
+        msg = f"--stroke: unknown parameter(s) {unknown}; allowed: {', '.join(PARAMETER_NAMES)}"
+        raise ValueError(msg)
     values.update({k: float(v) for k, v in overrides.items()})
     return np.array([values[name] for name in PARAMETER_NAMES])
 
@@ -323,10 +316,8 @@ class Run:
             # The default wake is left out, so runs stored before the choice existed keep
             # their keys (and are reused); any other wake is another record.
             del fields["wake"]
-        text = json.dumps(
-            {"format": RUN_FORMAT, "solver": solver_version, "run": fields}, sort_keys=True
-        )
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
+        keyed = {"format": RUN_FORMAT, "solver": solver_version, "run": fields}
+        return hashlib.sha256(json.dumps(keyed, sort_keys=True).encode()).hexdigest()[:20]
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Run:
@@ -335,10 +326,8 @@ class Run:
         fields = dict(data)
         for pair in PAIRS:
             if fields[pair] is not None:
-                motion = {
-                    k: tuple(v) if isinstance(v, list) else v for k, v in fields[pair].items()
-                }
-                fields[pair] = WingMotion(**motion)
+                wing = {k: tuple(v) if isinstance(v, list) else v for k, v in fields[pair].items()}
+                fields[pair] = WingMotion(**wing)
         fields["resolution"] = Resolution(**fields["resolution"])
         return cls(**fields)
 
@@ -371,15 +360,9 @@ def case_runs(
         for pair in PAIRS
     }
     for lag in case.lags:
-        runs[f"tandem {lag:g}"] = Run(
-            "tandem",
-            fore=motions["fore"],
-            hind=wing_motion(insect.hind, stroke, "hind", lag),
-            spacing=case.spacing,
-            drop=case.drop,
-            lag=lag,
-            **common,
-        )
+        hind = wing_motion(insect.hind, stroke, "hind", lag)
+        where = {"spacing": case.spacing, "drop": case.drop, "lag": lag}
+        runs[f"tandem {lag:g}"] = Run("tandem", fore=motions["fore"], hind=hind, **where, **common)
     return runs
 
 
@@ -396,13 +379,10 @@ def hind_position(spacing: float, drop: float, beta_deg: float) -> np.ndarray:
 
 
 def wing_surface(
-    motion: WingMotion,
-    origin: np.ndarray,
-    t: np.ndarray,
-    root_offset: float,
-    samples: tuple[int, int],
+    motion: WingMotion, origin: np.ndarray, t: np.ndarray, offset: float, samples: tuple[int, int]
 ) -> np.ndarray:
-    """Points of a right wing's flat surface at times ``t`` [s], (len(t), n_span·n_chord, 3) [m].
+    """Points of a right wing's flat surface at times ``t`` [s], (len(t), n_span·n_chord, 3) [m],
+    its root ``offset`` [m] from the mid-plane.
 
     The wing pitches about its straight mid-chord line (docs/model.md §2.4), which sweeps about
     the stroke-plane normal through the root; the rotation is the solver's intrinsic x-y'
@@ -411,17 +391,13 @@ def wing_surface(
     span = np.linspace(0.0, STATIONS[-1], n_span)
     chord = np.interp(span, STATIONS, motion.chords)
     along = (np.linspace(0.0, 1.0, n_chord)[None, :] - 0.5) * chord[:, None]  # from mid-chord
-    x = along.ravel()
-    y = np.repeat(span * motion.length, n_chord)
+    x, y = along.ravel(), np.repeat(span * motion.length, n_chord)
     phi, eta = motion.angles(np.asarray(t, dtype=float))
     ce, se = np.cos(eta)[:, None], np.sin(eta)[:, None]
     cp, sp = np.cos(phi)[:, None], np.sin(phi)[:, None]
     # R_X(φ)·R_Y(η)·(x, y, 0)
-    px = ce * x
-    py = cp * y + sp * se * x
-    pz = sp * y - cp * se * x
-    points = np.stack([px, py, pz], axis=-1)
-    return points + (np.asarray(origin) + np.array([0.0, root_offset, 0.0]))
+    points = np.stack([ce * x, cp * y + sp * se * x, sp * y - cp * se * x], axis=-1)
+    return points + (np.asarray(origin) + np.array([0.0, offset, 0.0]))
 
 
 def clearances(case: Case, insect: Dragonfly) -> dict[float, dict[str, float]]:

@@ -13,7 +13,7 @@ from typing import Any
 from agents.store import RECORDS_DIR
 from eval.optimize import add_run_arguments, run_options
 from tandem_env.io.files import FolderLock, output_directory
-from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
+from tandem_env.physics import DRAGONFLY, PLANFORMS, SPEED_LIMITS, Dragonfly
 
 from .case import (
     MIN_CLEARANCE,
@@ -35,8 +35,6 @@ HELP = (
     f"{INSTALL})"
 )
 DEFAULT_OUT = Path("results") / "crosscheck"
-#: Where the solver's records were kept before the runner ran them (:func:`adopt_old_runs`).
-OLD_RUNS_DIR = "runs"
 
 
 @dataclass(frozen=True)
@@ -184,11 +182,7 @@ OPTIONS: dict[str, dict[str, Any]] = {
         "help": "change base-case stroke parameters, e.g. fore_sweep_amplitude=40 (Table 4 units)",
     },
     "--planform": {"choices": PLANFORMS, "default": "tear-drop", "help": "both wings' planform"},
-    "--steps-per-beat": {
-        "type": int,
-        "metavar": "N",
-        "help": "solver time steps per beat (default 48)",
-    },
+    "--steps-per-beat": dict(type=int, metavar="N", help="solver time steps per beat (default 48)"),
     "--panels": {"metavar": "CxS", "help": "chordwise x spanwise panels per wing (default 4x8)"},
     "--beats": {"type": int, "metavar": "N", "help": "beats run; loads from the last (default 3)"},
     "--wake": {
@@ -207,9 +201,8 @@ OPTIONS: dict[str, dict[str, Any]] = {
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     for flag, keywords in OPTIONS.items():
         parser.add_argument(flag, **keywords)
-    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun", "--quiet")
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder ({DEFAULT_OUT})")
-    parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resolution]]:
@@ -241,14 +234,11 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
         except ValueError:
             sep = ""
         if not sep:
-            raise ValueError(
-                f"--stroke {item!r}; allowed: NAME=NUMBER, e.g. fore_sweep_amplitude=40"
-            )
+            msg = f"--stroke {item!r}; allowed: NAME=NUMBER, e.g. fore_sweep_amplitude=40"
+            raise ValueError(msg)
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
     cases = [point.case(insect, stroke, lags) for point in grid.points]
     if where:
-        from tandem_env.physics import SPEED_LIMITS
-
         case = replace(cases[0], **where)
         if not SPEED_LIMITS[0] < case.speed <= SPEED_LIMITS[1]:
             raise ValueError(
@@ -283,7 +273,7 @@ def adopt_old_runs(out_dir: Path) -> None:
     """Move the records of ``OUT/runs`` (where they were kept before the runner ran the
     solver's runs: the same files) into the store's ``OUT/records``, once; one already there is
     kept. The store checks each when its run asks for it."""
-    for path in (out_dir / OLD_RUNS_DIR).glob("*.json"):
+    for path in (out_dir / "runs").glob("*.json"):
         (out_dir / RECORDS_DIR).mkdir(exist_ok=True)
         if not (out_dir / RECORDS_DIR / path.name).exists():
             path.replace(out_dir / RECORDS_DIR / path.name)

@@ -41,13 +41,10 @@ def ours(case: Case, insect: Dragonfly) -> dict[str, Any]:
     strokes = np.array([shifted_stroke(np.asarray(case.stroke), lag) for lag in case.lags])
     flyer = replace(insect, root_spacing=case.spacing, root_drop=case.drop)
     out: dict[str, Any] = {}
-    for name, options in [("isolated", ModelOptions(induction="isolated"))] + [
-        (reading, ModelOptions(slipstream=reading)) for reading in READINGS
-    ]:
-        result = evaluate(strokes, case.speed, insect=flyer, options=options)
-        out[name] = {
-            pair: getattr(result, f"{pair}_lift_to_weight") * flyer.weight for pair in PAIRS
-        }
+    options = {"isolated": ModelOptions(induction="isolated")}
+    for name, option in (options | {r: ModelOptions(slipstream=r) for r in READINGS}).items():
+        result = evaluate(strokes, case.speed, insect=flyer, options=option)
+        out[name] = {p: getattr(result, f"{p}_lift_to_weight") * flyer.weight for p in PAIRS}
     return out
 
 
@@ -96,28 +93,24 @@ def rows(
     model = {case: ours(case, insect) for case in dict.fromkeys(p.case for p in planned)}
     for plan in planned:
         mine = model[plan.case]
-        alone = {pair: results[plan.runs[pair]][pair] for pair in PAIRS}
+        alone = {pair: results[plan.runs[pair]][pair]["vertical"] for pair in PAIRS}
         for index, lag in enumerate(plan.case.lags):
             tandem = results[plan.runs[f"tandem {lag:g}"]]
+            both = {pair: tandem[pair]["vertical"] for pair in PAIRS}
             row: dict[str, Any] = {
                 "stroke_changes": stroke_changes(plan.case),
                 "speed_m_s": plan.case.speed,
                 "spacing_mm": round(1e3 * plan.case.spacing, 3),
                 "drop_mm": round(1e3 * plan.case.drop, 3),
                 "lag_deg": lag,
-                "steps_per_beat": plan.resolution.steps_per_beat,
-                "panels": plan.resolution.panels,
-                "beats": plan.resolution.beats,
+                **{k: getattr(plan.resolution, k) for k in ("steps_per_beat", "panels", "beats")},
                 "wake": plan.runs["fore"].wake,
                 "clearance_mm": round(1e3 * plan.clearance[lag]["pairs"], 2),
             }
             for pair in PAIRS:
-                row[f"uvlm_{pair}_alone_mN"] = 1e3 * alone[pair]["vertical"]
-                row[f"uvlm_{pair}_tandem_mN"] = 1e3 * tandem[pair]["vertical"]
-            for pair in PAIRS:
-                row[f"uvlm_{pair}_change_pct"] = _percent(
-                    tandem[pair]["vertical"], alone[pair]["vertical"]
-                )
+                row[f"uvlm_{pair}_alone_mN"] = 1e3 * alone[pair]
+                row[f"uvlm_{pair}_tandem_mN"] = 1e3 * both[pair]
+            row |= {f"uvlm_{p}_change_pct": _percent(both[p], alone[p]) for p in PAIRS}
             row |= model_cells(mine, index)
             row["uvlm_tandem_wall_s"] = round(tandem["wall_time"], 1)
             out.append(row)
@@ -218,28 +211,20 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
     fig, axes = plt.subplots(len(cases), 2, figsize=size, squeeze=False, width_ratios=(2, 1))
     for (left, right), key in zip(axes, cases, strict=True):
         mine = [r for r in table if case_of(r) == key]
-        at_base = (base.steps_per_beat, base.panels, base.beats)
-        main = [
-            r for r in mine if (r["steps_per_beat"], r["panels"], r["beats"]) == at_base
-        ] or mine
+        res = (base.steps_per_beat, base.panels, base.beats)
+        main = [r for r in mine if (r["steps_per_beat"], r["panels"], r["beats"]) == res] or mine
         lags = [r["lag_deg"] for r in main]
         # hind-wing: solid lines, filled circles and x; fore-wing: dashed, open circles and +
-        for pair, style, face, mark in (
-            ("hind", "-", UVLM_COLOUR, "x"),
-            ("fore", "--", "white", "+"),
-        ):
+        for pair, ls, mfc, mark in (("hind", "-", UVLM_COLOUR, "x"), ("fore", "--", "white", "+")):
             uvlm = [r[f"uvlm_{pair}_change_pct"] for r in main]
-            left.plot(lags, uvlm, "o" + style, color=UVLM_COLOUR, mfc=face, label=f"UVLM {pair}")
+            left.plot(lags, uvlm, "o" + ls, color=UVLM_COLOUR, mfc=mfc, label=f"UVLM {pair}")
             for i, reading in enumerate(READINGS):
-                change = [r[f"ours_{reading}_{pair}_change_pct"] for r in main]
-                left.plot(
-                    lags, change, mark + style, color=PALETTE[i], label=f"ours ({reading}) {pair}"
-                )
+                y = [r[f"ours_{reading}_{pair}_change_pct"] for r in main]
+                left.plot(lags, y, mark + ls, color=PALETTE[i], label=f"ours ({reading}) {pair}")
         left.axhline(0.0, color="0.7", lw=0.8)
         left.set_xticks(lags)
-        left.set(
-            xlabel="lag ΔΦ: the hind-wing's phase lead [deg]", ylabel="vertical force change [%]"
-        )
+        left.set_xlabel("lag ΔΦ: the hind-wing's phase lead [deg]")
+        left.set_ylabel("vertical force change [%]")
         first = main[0]
         left.set_title(
             f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm "
@@ -271,7 +256,6 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             right.axis("off")
     # One legend above the panels, off the data (every panel has the same series).
     handles, labels = axes[0][0].get_legend_handles_labels()
-    legend_height = 0.5  # [inch]
     fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - legend_height / fig.get_figheight()))
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.5 / fig.get_figheight()))  # legend: 0.5 inch
     return save(fig, out_dir / FIGURE, crop=False)

@@ -53,11 +53,10 @@ def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) 
         last = i == len(STATIONS) - 1
         # Leading points offset by half the change of chord: a straight mid-chord line, the
         # blade-element model's pitch axis (docs/model.md §2.4).
-        offset = (
-            (0.0, 0.0, 0.0)
-            if i == 0
-            else (-(chord - chords[i - 1]) / 2, (station - STATIONS[i - 1]) * motion.length, 0.0)
-        )
+        offset = (0.0, 0.0, 0.0)
+        if i:
+            span = (station - STATIONS[i - 1]) * motion.length
+            offset = (-(chord - chords[i - 1]) / 2, span, 0.0)
         sections.append(
             section(
                 airfoil=ps.geometry.airfoil.Airfoil(AIRFOIL),
@@ -99,9 +98,8 @@ def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) 
         )
         for each in airplane.wings
     ]
-    return airplane, ps.movements.airplane_movement.AirplaneMovement(
-        base_airplane=airplane, wing_movements=movements
-    )
+    movement = ps.movements.airplane_movement.AirplaneMovement
+    return airplane, movement(base_airplane=airplane, wing_movements=movements)
 
 
 def build(run: Run) -> tuple[Any, Any, list[str]]:
@@ -110,11 +108,8 @@ def build(run: Run) -> tuple[Any, Any, list[str]]:
     import pterasoftware as ps
 
     # The first Airplane's origin is the problem's origin: the hind pair alone sits there.
-    hind_origin = (
-        np.zeros(3)
-        if run.fore is None
-        else hind_position(run.spacing, run.drop, run.stroke_plane_angle)
-    )
+    behind = hind_position(run.spacing, run.drop, run.stroke_plane_angle)
+    hind_origin = np.zeros(3) if run.fore is None else behind
     candidates = (("fore", run.fore, np.zeros(3)), ("hind", run.hind, hind_origin))
     pairs = [(name, motion, origin) for name, motion, origin in candidates if motion is not None]
     built = [_pair(ps, motion, name, run, origin) for name, motion, origin in pairs]
@@ -148,13 +143,10 @@ def solve(run: Run) -> dict[str, Any]:
         # The project runs numba on its work-queue threading layer on purpose
         # (tandem_env/physics/__init__.py); the solver's advice to change it is not for here.
         warnings.filterwarnings("ignore", message=".*workqueue threading layer.*")
-        solver.run(
-            prescribed_wake=run.wake == "prescribed",
-            calculate_streamlines=False,
-            show_progress=False,
-        )
+        prescribed = run.wake == "prescribed"
+        solver.run(prescribed_wake=prescribed, calculate_streamlines=False, show_progress=False)
     to_geometry = np.asarray(operating_point.T_pas_W_CgP1_to_GP1_CgP1)[:3, :3]
-    lateral = np.array([0.0, 1.0, 0.0])
+    axes = {"vertical": up, "forward": forward, "lateral": np.array([0.0, 1.0, 0.0])}
     out: dict[str, Any] = {}
     for index, name in enumerate(names):
         mean = to_geometry @ np.asarray(problem.finalMeanForces_W[index], dtype=float)
@@ -162,13 +154,8 @@ def solve(run: Run) -> dict[str, Any]:
         history = np.array(
             [to_geometry @ np.asarray(s.airplanes[index].forces_W, dtype=float) for s in last_beat]
         )
-        out[name] = {
-            "vertical": float(mean @ up),
-            "forward": float(mean @ forward),
-            "lateral": float(mean @ lateral),
-            "vertical_history": (history @ up).tolist(),
-            "forward_history": (history @ forward).tolist(),
-        }
+        out[name] = {key: float(mean @ axis) for key, axis in axes.items()}
+        out[name] |= {f"{k}_history": (history @ axes[k]).tolist() for k in ("vertical", "forward")}
     out["steps"] = int(problem.num_steps)
     out["wall_time"] = time.perf_counter() - start
     return out
@@ -207,9 +194,8 @@ class SolverRecord:
             body = {k: data[k] for k in ("format", "key", "solver", "run", "result")}
             record = cls(SolverJob(Run.from_dict(body["run"]), body["solver"]), body["result"])
         except (KeyError, TypeError, ValueError, AttributeError) as error:
-            raise RecordError(
-                f"not a solver run's record ({type(error).__name__}: {error})"
-            ) from None
+            msg = f"not a solver run's record ({type(error).__name__}: {error})"
+            raise RecordError(msg) from None
         if data.get("checksum") != _checksum(body):
             raise RecordChecksumError("its checksum does not match its contents")
         if record.key != body["key"]:  # the key hashes the format too

@@ -20,7 +20,7 @@ from agents.records import Record, RecordWarning
 from agents.runner import run_jobs
 from agents.store import read_record
 from eval import reference as make_reference
-from eval.reference_candidates import candidates
+from eval.reference import candidates
 from tandem_env.envs import LEVEL_FLIGHT_ID
 from tandem_env.envs import reference as table_module
 from tandem_env.io.files import write_json_atomic
