@@ -38,7 +38,8 @@ from agents.parts import (
     search_history,
     search_part,
 )
-from agents.polish import env_problem, polishable, split_settings, task_problem
+from agents.polish_config import split_settings
+from agents.polish_gradients import env_problem, polishable, task_problem
 from agents.records import CERTIFICATE, STARTS, Record, package_versions
 from agents.tasks import TaskSpec, get_task
 from agents.verify import stepped_results
@@ -107,16 +108,7 @@ def prepare_job(
     check = getattr(method_obj, "check", None)
     if callable(check):
         check(part - reserve, dim, spec)
-    return PreparedJob(
-        job=job,
-        method=method_obj,
-        task=spec,
-        condition=cond,
-        env_kwargs=kwargs,
-        objective_name=objective_name,
-        dim=dim,
-        polish=polish_config,
-    )
+    return PreparedJob(job, method_obj, spec, cond, kwargs, objective_name, dim, polish_config)
 
 
 def prepare(
@@ -154,20 +146,11 @@ def prepare(
     if not seed_list:
         raise ValueError("seeds is empty; allowed: one or more integers >= 0")
     # A method given by name is resolved, its settings checked, with the job (prepare_job).
-    method_obj = None
+    method_obj, settings = None, dict(method_config or {})
     if not isinstance(method, str):
-        own = split_settings(getattr(method, "name", ""), dict(method_config or {}))[1]
-        method_obj = get_method(method, own)
-    first = Job(
-        method=method if method_obj is None else method_obj.name,
-        task=spec.name,
-        condition=condition,
-        budget=budget,
-        seed=seed_list[0],
-        env_kwargs=kwargs,
-        method_config=dict(method_config or {}),
-        preset=preset,
-    )
+        method_obj = get_method(method, split_settings(getattr(method, "name", ""), settings)[1])
+    name = method if method_obj is None else method_obj.name
+    first = Job(name, spec.name, condition, budget, seed_list[0], kwargs, settings, preset)
     jobs = [first, *(replace(first, seed=seed) for seed in seed_list[1:])]
     if len({job.seed for job in jobs}) != len(jobs):
         raise ValueError(f"seeds {seed_list} repeat; allowed: distinct integers >= 0")

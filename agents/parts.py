@@ -118,11 +118,9 @@ def search_part(
     if index > 0:
         seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
     reserve = prepared.polish.reserve(budget, gradient_cost(prepared.dim, prepared.task))
-
-    def shifted(iteration: int, evaluations: int, best: float) -> None:
-        report(iteration, offset + evaluations, best)
-
-    outcome, evaluator = _search(prepared, seed, budget - reserve, shifted)
+    outcome, evaluator = _search(
+        prepared, seed, budget - reserve, lambda i, e, best: report(i, offset + e, best)
+    )
     found = _select(outcome, evaluator, seed)
     return _polish(prepared, found, budget - outcome.evaluations, reserve, problem)
 
@@ -145,15 +143,10 @@ def initial_part(
         evaluations += 1
     reward = float(objective) if objective is not None and feasible else -math.inf
     selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
+    feasible = feasible and objective is not None
+    seed = prepared.job.seed
     return Part(
-        kind="initial",
-        seed=prepared.job.seed,
-        action=result.stroke,
-        reward=reward,
-        feasible=feasible and objective is not None,
-        selection=selection,
-        certificate=certificate,
-        evaluations=evaluations,
+        "initial", seed, result.stroke, reward, feasible, selection, certificate, evaluations
     )
 
 
@@ -293,57 +286,33 @@ def _polish(
 
 def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator, seed: int) -> Part:
     """The search's part, unpolished: its best feasible stroke, else its best reward's."""
-    part = Part(
-        kind="search",
-        seed=seed,
-        action=outcome.best_action,
-        reward=outcome.best_reward,
-        feasible=False,
-        selection=SELECTION_BEST_REWARD,
-        certificate=Certificate.off(),
-        evaluations=outcome.evaluations,
-        outcome=outcome,
-    )
+    found = (outcome.best_action, outcome.best_reward, False, SELECTION_BEST_REWARD)
     if evaluator.evaluations < outcome.evaluations:
         # the method evaluated strokes through its own envs (SB3): it chooses, by the same rule
         # (train/policies.py)
-        return replace(part, selection=SELECTION_METHOD)
-    if evaluator.best_feasible is None:
-        return part
-    action, reward = evaluator.best_feasible
-    return replace(
-        part, action=action, reward=reward, feasible=True, selection=SELECTION_BEST_FEASIBLE
-    )
+        found = (*found[:3], SELECTION_METHOD)
+    elif evaluator.best_feasible is not None:
+        found = (*evaluator.best_feasible, True, SELECTION_BEST_FEASIBLE)
+    return Part("search", seed, *found, Certificate.off(), outcome.evaluations, outcome)
 
 
 def _search(
     prepared: PreparedJob, seed: int, budget: int, report: Reporter
 ) -> tuple[SearchOutcome, VectorEnvEvaluator]:
     """The method's search through the budgeted vector-env evaluator, checked."""
-    job = prepared.job
-    task = prepared.task
-    kwargs = prepared.env_kwargs
+    job, task, kwargs, dim = prepared.job, prepared.task, prepared.env_kwargs, prepared.dim
     with VectorEnvEvaluator(task, prepared.condition, kwargs, seed, budget, report) as evaluator:
-        context = SearchContext(
-            task=task,
-            condition=prepared.condition,
-            env_id=task.env_id,
-            env_kwargs=kwargs,
-            budget=budget,
-            seed=seed,
-            dim=prepared.dim,
-            evaluator=evaluator,
-            _reporter=report,
-        )
+        where = (task, prepared.condition, task.env_id, kwargs)
+        context = SearchContext(*where, budget, seed, dim, evaluator, report)
         outcome = prepared.method.search(context)
     if not evaluator.evaluations <= outcome.evaluations <= budget:
         raise RuntimeError(
             f"{job.method} reported {outcome.evaluations} evaluations; it made "
             f"{evaluator.evaluations} through the harness and its budget is {budget}"
         )
-    if outcome.best_action.shape != (prepared.dim,):
+    if outcome.best_action.shape != (dim,):
         raise RuntimeError(
             f"{job.method} returned a stroke of shape {outcome.best_action.shape}; "
-            f"the action space has dimension {prepared.dim}"
+            f"the action space has dimension {dim}"
         )
     return outcome, evaluator

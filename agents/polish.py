@@ -28,17 +28,23 @@ from typing import Any
 import numpy as np
 from scipy.optimize import BFGS, Bounds, NonlinearConstraint, OptimizeResult, minimize, nnls
 
-# The public names of the settings and gradient modules (their __all__) are this module's too.
-from agents.polish_config import *  # noqa: F403
-from agents.polish_config import PolishConfig
-from agents.polish_gradients import *  # noqa: F403
-from agents.polish_gradients import (
+# The polish's settings and problem: its users import them from here (re-exported).
+from agents.polish_config import (  # noqa: F401
+    MAX_STARTS,
+    POLISH_DEFAULTS,
+    POLISH_METHODS,
+    PolishConfig,
+    split_settings,
+)
+from agents.polish_gradients import (  # noqa: F401
     AutogradGradient,
+    BatchEvaluation,
     CentralDifferences,
     Gradient,
     GradientFunction,
     Problem,
     finishable,
+    task_problem,
 )
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
 from tandem_env.physics.checks import is_integer

@@ -12,16 +12,6 @@ import numpy as np
 
 from tandem_env.physics.checks import count, finite_real, is_real
 
-__all__ = [
-    "INITIAL_SHARE_RANGE",
-    "MAX_STARTS",
-    "POLISH_DEFAULTS",
-    "POLISH_METHODS",
-    "POLISH_SETTINGS",
-    "PolishConfig",
-    "split_settings",
-]
-
 #: Local optimisers the polish offers ("none": no polish).
 POLISH_METHODS: tuple[str, ...] = ("none", "slsqp", "trust-constr")
 #: The polish each search method gets when none is given (others: none).

@@ -17,19 +17,6 @@ from agents.polish_config import PolishConfig
 from agents.tasks import Condition, TaskSpec
 from tandem_env.envs.problem import FlightProblem, ProblemEvaluation
 
-__all__ = [
-    "AutogradGradient",
-    "BatchEvaluation",
-    "CentralDifferences",
-    "Gradient",
-    "GradientFunction",
-    "Problem",
-    "env_problem",
-    "finishable",
-    "polishable",
-    "task_problem",
-]
-
 
 @dataclass(frozen=True)
 class BatchEvaluation:

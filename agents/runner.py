@@ -149,12 +149,8 @@ Given = Job | PreparedJob | Work
 
 
 def _failure(job: Job | Work, error: BaseException, tb: Any) -> JobFailure:
-    return JobFailure(
-        key=job.key,
-        label=job.label(),
-        error=f"{type(error).__name__}: {error}",
-        traceback="".join(traceback.format_exception(type(error), error, tb)),
-    )
+    trace = "".join(traceback.format_exception(type(error), error, tb))
+    return JobFailure(job.key, job.label(), f"{type(error).__name__}: {error}", trace)
 
 
 def _run_serially(
@@ -366,18 +362,10 @@ def run_jobs(
                     command.ran(job, now - running)
                 running = now
         noun = next((getattr(_job_of(j), "noun", "optimisation") for j in given.values()), "")
-        summary = RunSummary(
-            total=len(given),
-            reused=len(given) - len(missing),
-            ran=len(missing),
-            wall_time=time.perf_counter() - start,
-            executor=executor,
-            failures=tuple(sorted(failures, key=lambda f: f.key)),
-            records=records,
-            cached=len(cached),
-            replaced=replaced,
-            noun=noun,
-        )
+        counts = (len(given), len(given) - len(missing), len(missing))  # total, reused, ran
+        failed = tuple(sorted(failures, key=lambda f: f.key))
+        end = (time.perf_counter() - start, executor, failed, records)
+        summary = RunSummary(*counts, *end, len(cached), replaced, noun)
         if failures:
             raise JobsFailed(summary)
         return summary
