@@ -272,7 +272,7 @@ def polish(
     # with the problem's own value there, below)
     check = grad_fn.cost + isinstance(grad_fn, AutogradGradient)
     run = _Run(problem, x0, int(budget) - check, grad_fn, config)
-    if finishable(problem, grad_fn.name, config):  # kept for agents.parts.finish
+    if finishable(problem, grad_fn.name, config):  # kept for agents.harness.finish
         run.allowance -= round(config.finish * run.allowance)
     z0 = x0[run.free]
     first = run.gradient(z0)
@@ -291,7 +291,7 @@ def polish(
     optimal = f"KKT residual <= {config.optimality:g} at a feasible iterate"
     message = optimal if climb.optimal else climb.message
     template = replace(template, iterations=iterations, converged=converged, message=message)
-    # a start already polished (:func:`agents.parts.finish`'s) gives way to the iterate
+    # a start already polished (:func:`agents.harness.finish`'s) gives way to the iterate
     # that passed the KKT stop beside it, within the 1e-6 of the stop's rule, to certify it
     settled = keep_certified and climb.optimal and run.best is not None
     settled = settled and not np.array_equal(run.best[1], x0)
@@ -436,7 +436,7 @@ def _keep(
     run: _Run, x0: np.ndarray, before: float, template: Certificate, feasible: bool
 ) -> PolishResult:
     """The start stays (no gain, a failure, an infeasible start), checked with the held margins
-    if it lies inside them (a polished stroke, e.g. one :func:`agents.parts.finish`
+    if it lies inside them (a polished stroke, e.g. one :func:`agents.harness.finish`
     starts from), else (a search's stroke) with the plain margin and activity."""
     found = run.values.get(x0.tobytes())
     if found is None or np.any(found[1] - run.margin < -run.active):

@@ -62,7 +62,7 @@ class PolishConfig:
     finish: float = 0.1
     """Fraction of a polish's allowance kept back, in [0, 0.5], where it climbs by central
     differences and the problem differentiates: where the run's reported stroke is not
-    certified, :func:`agents.parts.finish` polishes it on with autograd gradients on
+    certified, :func:`agents.harness.finish` polishes it on with autograd gradients on
     what the run left (central differences misread the gradient where the model's second
     derivative jumps within a step); 0: no finish (docs/harness.md, "Certified")."""
     margin: float = 1e-9

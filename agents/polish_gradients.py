@@ -204,7 +204,7 @@ def _gradient(
 
 def finishable(problem: Problem, gradient: str, config: PolishConfig) -> bool:
     """A polish by ``gradient`` (its name) keeps ``config.finish`` of its allowance back for
-    :func:`agents.parts.finish`: not autograd, ``problem`` differentiates, KKT stop on."""
+    :func:`agents.harness.finish`: not autograd, ``problem`` differentiates, KKT stop on."""
     return (
         gradient != AutogradGradient.name
         and problem.differentiate is not None

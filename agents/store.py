@@ -13,7 +13,7 @@ import os
 import re
 import stat
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -234,12 +234,13 @@ class RecordStore:
         return found
 
     def write_summary(self, known: Mapping[str, Record] | None = None) -> Path:
-        """Rewrite ``DIR/summary.csv`` over every record in the store (each file read at most
-        once, none of ``known``: :meth:`records`); its path."""
+        """Rewrite ``DIR/summary.csv`` atomically, a row (:meth:`Record.summary_row`) per record
+        in the store (each file read at most once, none of ``known``: :meth:`records`, in its
+        order); its path."""
         path = self.directory / SUMMARY_NAME
-        records = self.records(known)
+        rows = [record.summary_row() for record in self.records(known)]
         try:
-            write_summary(path, records)
+            write_csv_atomic(path, rows)
         except OSError as error:
             raise StoreWriteError(path, error) from None
         return path
@@ -251,12 +252,6 @@ def _warn(message: str) -> None:
 
 def _summary_order(r: Record) -> tuple[Any, ...]:
     return (r.task, r.objective_name, r.condition.value, r.method, r.budget, r.seed, r.key)
-
-
-def write_summary(path: str | os.PathLike[str], records: Sequence[Record]) -> None:
-    """Write the CSV summary of ``records`` atomically: a row each (:meth:`Record.summary_row`),
-    sorted by task, objective, condition, method, budget and seed."""
-    write_csv_atomic(path, [r.summary_row() for r in sorted(records, key=_summary_order)])
 
 
 def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:

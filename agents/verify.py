@@ -14,11 +14,10 @@ import gymnasium as gym
 import numpy as np
 
 from agents.evaluator import NATIVE_VECTOR_ENV, reevaluate
+from agents.harness import PreparedJob, stepped_results
 from agents.jobs import Job
-from agents.parts import PreparedJob
 from agents.records import Record
 from agents.tasks import TaskSpec, get_task
-from tandem_env.io.files import to_jsonable
 
 #: The results a record's stroke decides, compared with their re-evaluation.
 CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
@@ -32,22 +31,6 @@ TABLE_RELATIVE = frozenset({"score"})
 RTOL, ATOL = 1e-7, 1e-8
 #: The most records re-evaluated in one step (the model takes up to 10 000 strokes a batch).
 _BATCH = 1024
-
-
-def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
-    """The record's results that one env step of its stroke decides (:data:`CHECKED`): the
-    harness's record (:func:`agents.harness.run_job`) and this check read a step one way."""
-    info = dict(info)
-    stroke = info.pop("stroke", None)
-    if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...
-        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
-    return {
-        "reward": float(reward),
-        "objective": float(info.get("objective", reward)),
-        "feasible": bool(info.get("feasible", True)),
-        "stroke": to_jsonable(stroke),
-        "metrics": to_jsonable(info),
-    }
 
 
 def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) -> dict[str, str]:

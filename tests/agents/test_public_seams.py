@@ -14,7 +14,6 @@ MODULES = [
     "agents/polish_config.py",
     "agents/polish_gradients.py",
     "agents/harness.py",
-    "agents/parts.py",
 ]
 #: The env's internals the polish used to reach for: its batched core.
 INTERNALS = {"core"}
