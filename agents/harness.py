@@ -359,8 +359,7 @@ def prepare_job(
         can_polish = polishable(env_problem(env))
     polish_config, own_config = split_settings(job.method, dict(job.method_config))
     if polish_config.enabled and not can_polish:
-        given = dict(job.method_config)
-        if "polish" in given or "initial" in given:
+        if {"polish", "initial"} & set(dict(job.method_config)):
             raise ValueError(
                 f"polish = {polish_config.method!r}: task {spec.name!r} declares no constraints "
                 "with margins for a local polish (Constraint.margin); allowed: 'none'"
@@ -507,12 +506,9 @@ def _results(
     """The record's results (:data:`agents.records.RESULTS`) from the re-evaluation."""
     action, search_reward, selection = chosen.action, chosen.reward, chosen.selection
     if not np.isclose(again.reward, search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
-        warnings.warn(
-            f"{prepared.job.label()}: re-evaluated reward {again.reward!r} differs from the "
-            f"search's {search_reward!r}",
-            RuntimeWarning,
-            stacklevel=3,
-        )
+        differs = f"re-evaluated reward {again.reward!r} differs from the search's"
+        message = f"{prepared.job.label()}: {differs} {search_reward!r}"
+        warnings.warn(message, RuntimeWarning, stacklevel=3)
     return {
         "env_id": prepared.task.env_id,
         "objective_name": prepared.objective_name,
@@ -539,8 +535,9 @@ def _results(
 
 
 def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
-    """The record's results that one env step of its stroke decides (:data:`agents.verify.CHECKED`): the
-    record (:func:`run_job`) and its check (:mod:`agents.verify`) read a step one way."""
+    """The record's results that one env step of its stroke decides
+    (:data:`agents.verify.CHECKED`): the record (:func:`run_job`) and its check
+    (:mod:`agents.verify`) read a step one way."""
     info = dict(info)
     stroke = info.pop("stroke", None)
     if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...

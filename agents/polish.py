@@ -2,12 +2,12 @@
 continuous stroke parameters (each wing's harmonic N held fixed), the box [-1, 1] as bounds
 and the task's constraints (the signed margins of ``Constraint.margin``) as constraints.
 
-This module is the driver (:func:`polish`, its :class:`Certificate`, the KKT check); the
-problem, gradients (:mod:`agents.polish_gradients`) and settings (:mod:`agents.polish_config`)
-are imported from here too. The budget counts model evaluations (a central-difference gradient
-at most 2k + 1, an autograd gradient one; docs/harness.md, "Local polish") and is never
-exceeded. The result is the best feasible point found if it beats the start, cast to float32
-(:func:`float32_margin` keeps it feasible); otherwise the start, the certificate saying why.
+The driver (:func:`polish`, its :class:`Certificate`, the KKT check); the problem, gradients
+(:mod:`agents.polish_gradients`) and settings (:mod:`agents.polish_config`) are imported from
+here too. The budget counts model evaluations (a central-difference gradient at most 2k + 1, an
+autograd gradient one; docs/harness.md, "Local polish"), never exceeded. The result is the best
+feasible point found if it beats the start, cast to float32 (:func:`float32_margin` keeps it
+feasible); otherwise the start, the certificate saying why.
 
 ::
 
@@ -249,12 +249,11 @@ def polish(
     relative below the start (a polished stroke its check could not certify). ``gradient``
     defaults to :class:`CentralDifferences` with ``config.step``; one gradient's ``cost`` is
     counted per call and kept back for the certificate's check at the reported stroke, so the
-    total never exceeds ``budget``. Without a feasible stroke
-    better than the start, the start is returned (``"no gain"`` or ``"failed: ..."``).
-    """
-    if not config.enabled:
-        return PolishResult(np.asarray(start, dtype=np.float64), math.nan, Certificate.off())
+    total never exceeds ``budget``. Without a feasible stroke better than the start, the start
+    is returned (``"no gain"`` or ``"failed: ..."``)."""
     x0 = np.asarray(start, dtype=np.float64)
+    if not config.enabled:
+        return PolishResult(x0, math.nan, Certificate.off())
     if x0.shape != (problem.dim,) or not np.all(np.abs(x0) <= 1.0):
         raise ValueError(f"start has shape {x0.shape} or leaves [-1, 1]; allowed: ({problem.dim},)")
     if not is_integer(budget) or budget < 0:
@@ -308,12 +307,8 @@ def polish(
     result = _finish(run, x_best, before, after, gain, replace(template, status="improved"))
     if not result.feasible:  # the margin is a first-order bound: say so if it ever falls short
         status = "failed: the optimum is infeasible as a float32 action"
-        certificate = replace(
-            result.certificate,
-            status=status,
-            gain=0.0 if first.feasible else None,
-            objective_after=before,
-        )
+        gain = 0.0 if first.feasible else None
+        certificate = replace(result.certificate, status=status, gain=gain, objective_after=before)
         return PolishResult(x0, before, certificate, feasible=first.feasible)
     return result
 
@@ -358,14 +353,9 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
         return run.gradient(z).jacobian
 
     bounds = Bounds(-np.ones(z0.size), np.ones(z0.size))
-    counter = [0]
-
-    def count(*_: Any) -> None:  # called once per optimiser iteration
-        counter[0] += 1
-
+    counter: list[None] = []  # an entry per optimiser iteration (its callback)
     outcome: OptimizeResult | None = None
-    failure = ""
-    optimal = False
+    failure, optimal = "", False
     with warnings.catch_warnings():
         # trust-constr warns when it skips a BFGS update (delta_grad == 0) and SLSQP about
         # values outside the bounds it clips; the outcome is in the certificate either way
@@ -380,9 +370,8 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
                 tolerances = {"gtol": config.tolerance, "xtol": config.tolerance}
                 own = {"method": "trust-constr", "hess": BFGS(), "options": tolerances}
             own["options"]["maxiter"] = config.max_iterations
-            outcome = minimize(
-                fun, z0, jac=jac, bounds=bounds, callback=count, constraints=[constraint], **own
-            )
+            own |= {"jac": jac, "bounds": bounds, "constraints": [constraint]}
+            outcome = minimize(fun, z0, callback=lambda *_: counter.append(None), **own)
         except _OutOfBudget:
             failure = "allowance used up"
         except _Optimal as stop:
@@ -396,11 +385,11 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             failure = f"failed: {type(error).__name__}: {error}"
     if outcome is None:
-        return _Climb(optimal, None, failure, failure, counter[0])
+        return _Climb(optimal, None, failure, failure, len(counter))
     # the optimiser's last point, for the certificate (it is feasible only if it says so)
     with contextlib.suppress(_OutOfBudget):
         run.value(np.asarray(outcome.x))
-    iterations = int(outcome.get("nit", counter[0]))
+    iterations = int(outcome.get("nit", len(counter)))
     return _Climb(optimal, bool(outcome.success), str(outcome.message), failure, iterations)
 
 

@@ -84,9 +84,6 @@ class CacheWriter:
             store.save(record)
         except (StoreWriteError, ValueError) as error:
             self.store = None
-            warnings.warn(
-                f"the record cache is not written ({error}); the records are in the output "
-                "folder (--no-cache turns the cache off)",
-                RecordWarning,
-                stacklevel=4,
-            )
+            where = "the records are in the output folder (--no-cache turns the cache off)"
+            message = f"the record cache is not written ({error}); {where}"
+            warnings.warn(message, RecordWarning, stacklevel=4)

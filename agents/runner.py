@@ -117,13 +117,11 @@ class JobsFailed(RuntimeError):
 
     def __init__(self, summary: RunSummary) -> None:
         self.summary = summary
-        failures = summary.failures
-        lines = [
-            f"{len(failures)} of {summary.ran} {summary.noun}s failed (the others finished and "
-            "their records are stored; rerun the same command to retry the failed ones):"
-        ]
-        lines += [f"--- {f.describe()}" for f in failures]
-        super().__init__("\n".join(lines))
+        head = (
+            f"{len(summary.failures)} of {summary.ran} {summary.noun}s failed (the others finished"
+            " and their records are stored; rerun the same command to retry the failed ones):"
+        )
+        super().__init__("\n--- ".join([head, *(f.describe() for f in summary.failures)]))
 
 
 # The serial executor's live progress: what the job running now reports to.
@@ -311,12 +309,11 @@ def run_jobs(
         # their keys hash the earlier format, so no job finds them: said once (one at a job's
         # own key was reported by store.load)
         if todo and (old := store.outdated(skip=given)):
-            warnings.warn(
+            message = (
                 f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
-                f"{old[0].name}) are not used: the jobs they held run again in this format",
-                RecordWarning,
-                stacklevel=2,
+                f"{old[0].name}) are not used: the jobs they held run again in this format"
             )
+            warnings.warn(message, RecordWarning, stacklevel=2)
         # Records of an earlier model sit under the keys it gave them (Job.key_at; None: before
         # keys held the revision): no job finds them; said once per store.
         revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
