@@ -185,14 +185,14 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
             sigma=sigma,
             bounds=self._bounds,
             steps=self._steps,
-            n_max_resampling=self._config.resampling,
+            n_max_resampling=self.config.resampling,
             seed=int(self._rng.integers(2**32)),
             population_size=popsize,
         )
         self._run = RunInfo(regime, popsize, float(sigma), start)  # type: ignore[arg-type]
         self._best: list[float] = []  # best fitness of each generation told
         self._median: list[float] = []  # ... and its median
-        self._patience = self._config.patience or 120 + math.ceil(30 * self.dim / popsize)
+        self._patience = self.config.patience or 120 + math.ceil(30 * self.dim / popsize)
 
     def _batch(self) -> int:
         return self._es.population_size
@@ -214,7 +214,7 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         # cmaes minimises: tell the negated fitness (NaN, mapped to -inf, becomes +inf).
         self._es.tell(list(zip(self._raw, (-fitness).tolist(), strict=True)))
         run.generations = self._es.generation
-        if self._config.restarts != "none" and len(self._best) % CHECK_EVERY == 0:
+        if self.config.restarts != "none" and len(self._best) % CHECK_EVERY == 0:
             stop = self._stop()
             if stop is not None:
                 self._restart(stop)
@@ -232,7 +232,7 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         for history in (self._best, self._median):
             window = history[-length:]
             old, new = float(np.median(window[:part])), float(np.median(window[-part:]))
-            if new > (old + self._config.tolerance * abs(old) if math.isfinite(old) else old):
+            if new > (old + self.config.tolerance * abs(old) if math.isfinite(old) else old):
                 return None
         return "stagnation"
 
@@ -242,15 +242,15 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         self._runs.append(finished)
         self._used["large" if finished.regime == "large" else "small"] += finished.evaluations
         end = finished.start + finished.evaluations
-        if self._config.restarts == "bipop" and self._used["small"] < self._used["large"]:
+        if self.config.restarts == "bipop" and self._used["small"] < self._used["large"]:
             u, v = self._rng.random(2)
             multiplier = POPSIZE_FACTOR**self._large_restarts
             popsize = max(MIN_POPSIZE, math.floor(self._popsize0 * multiplier ** (u**2)))
-            self._start_run("small", popsize, self._config.sigma0 * 10.0 ** (-2.0 * v), end)
+            self._start_run("small", popsize, self.config.sigma0 * 10.0 ** (-2.0 * v), end)
         else:
             self._large_restarts += 1
             popsize = self._popsize0 * POPSIZE_FACTOR**self._large_restarts
-            self._start_run("large", popsize, self._config.sigma0, end)
+            self._start_run("large", popsize, self.config.sigma0, end)
 
     @property
     def runs(self) -> list[RunInfo]:

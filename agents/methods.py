@@ -136,13 +136,8 @@ class AskTellMethod:
             optimiser.tell(X, context.evaluate(X))
         if (best := optimiser.best_position) is None:
             raise RuntimeError(f"{self.name}: every evaluation returned NaN or -inf")
-        return SearchOutcome(
-            best_action=best,
-            best_reward=optimiser.best_fitness,
-            evaluations=optimiser.evaluations,
-            history=tuple(optimiser.history),
-            config=optimiser.record(),
-        )
+        found = (best, optimiser.best_fitness, optimiser.evaluations, tuple(optimiser.history))
+        return SearchOutcome(*found, config=optimiser.record())
 
 
 #: The setting a study's preset swarm size goes to, per ask/tell method (None: the method

@@ -135,9 +135,11 @@ class AskTellOptimiser(Tally, ABC):
 
     def __init__(self, dim: int, batch_size: int, config: OptimiserConfig, seed: SeedLike) -> None:
         super().__init__()
-        self._dim = count(dim, "dim")
+        self.dim = count(dim, "dim")
+        """Dimension of the search box."""
+        self.config = config
+        """The configuration this optimiser was built from."""
         self._full_batch = int(batch_size)
-        self._config = config
         self._rng = np.random.default_rng(seed)
         self._pending: FloatArray | None = None
 
@@ -155,7 +157,7 @@ class AskTellOptimiser(Tally, ABC):
 
     def _next_size(self) -> int:
         """Points in the next round: a full one, or what is left of the budget (0 at the end)."""
-        return max(0, min(self._batch(), self._config.max_evaluations - self.evaluations))
+        return max(0, min(self._batch(), self.config.max_evaluations - self.evaluations))
 
     def ask(self) -> FloatArray:
         """Next batch of points (n, dim) in [-1, 1]^dim, the last truncated to the budget."""
@@ -187,16 +189,6 @@ class AskTellOptimiser(Tally, ABC):
         self.add(self._pending, f)
         self._pending = None
 
-    @property
-    def dim(self) -> int:
-        """Dimension of the search box."""
-        return self._dim
-
-    @property
-    def config(self) -> OptimiserConfig:
-        """The configuration this optimiser was built from."""
-        return self._config
-
     best_position = Tally.best_point
     best_fitness = Tally.best_value
 
@@ -207,4 +199,4 @@ class AskTellOptimiser(Tally, ABC):
 
     def record(self) -> dict[str, Any]:
         """JSON-ready record of the run's configuration (CMA-ES adds its restarts)."""
-        return self._config.to_dict()
+        return self.config.to_dict()

@@ -191,15 +191,8 @@ def _gradient(
     batch: BatchEvaluation, d_obj: np.ndarray, jacobian: np.ndarray, evaluations: int
 ) -> Gradient:
     """The :class:`Gradient` at the batch's first stroke, which took ``evaluations``."""
-    return Gradient(
-        float(batch.objective[0]),
-        batch.margins[0].copy(),
-        bool(batch.feasible[0]),
-        d_obj.copy(),
-        jacobian.copy(),
-        batch.names,
-        evaluations,
-    )
+    value = (float(batch.objective[0]), batch.margins[0].copy(), bool(batch.feasible[0]))
+    return Gradient(*value, d_obj.copy(), jacobian.copy(), batch.names, evaluations)
 
 
 def finishable(problem: Problem, gradient: str, config: PolishConfig) -> bool:
