@@ -64,9 +64,8 @@ POPSIZE_MULTIPLE = 4
 
 
 def default_popsize(dim: int) -> int:
-    """Four times Hansen's default population, 4 (4 + ⌊3 ln d⌋) (52 at d = 28): with the
-    polish, the best of 8 seeds reproduces on disjoint seed sets (docs/harness.md,
-    "Reproducibility check")."""
+    """Four times Hansen's default population, 4 (4 + ⌊3 ln d⌋) (52 at d = 28): with the polish, the
+    best of 8 seeds reproduces on disjoint seed sets (docs/harness.md, "Reproducibility check")."""
     return POPSIZE_MULTIPLE * (4 + math.floor(3.0 * math.log(dim)))
 
 

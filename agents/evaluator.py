@@ -45,11 +45,10 @@ class EvaluatedBatch:
 
 
 class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
-    """Budgeted, batched fitness through the task's native vector env, made with
-    ``env_kwargs`` and reset with ``condition`` (``seed`` seeds the first reset). Calling it
-    with actions (n, dim) returns their rewards (n,) and counts them: more than ``budget``
-    raises :class:`BudgetExceededError`; ``on_batch(iteration, evaluations, best)`` follows
-    every batch."""
+    """Budgeted, batched fitness through the task's native vector env, made with ``env_kwargs`` and
+    reset with ``condition`` (``seed`` seeds the first reset). Calling it with actions (n, dim)
+    returns their rewards (n,) and counts them: more than ``budget`` raises
+    :class:`BudgetExceededError`; ``on_batch(iteration, evaluations, best)`` follows every batch."""
 
     def __init__(
         self,

@@ -535,9 +535,8 @@ def _results(
 
 
 def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
-    """The record's results that one env step of its stroke decides
-    (:data:`agents.verify.CHECKED`): the record (:func:`run_job`) and its check
-    (:mod:`agents.verify`) read a step one way."""
+    """The record's results that one env step of its stroke decides (:data:`agents.verify.CHECKED`):
+    the record (:func:`run_job`) and its check (:mod:`agents.verify`) read a step one way."""
     info = dict(info)
     stroke = info.pop("stroke", None)
     if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...

@@ -124,9 +124,8 @@ class Job:
     """The study preset the job belongs to (part of the key, so presets never share records);
     empty outside the studies (``python -m eval optimize``)."""
     method_identity: str | None = None
-    """What the files the method reads hold, so a newer trained run is another job under
-    another key (:func:`method_identity` when not given); empty ones are left out of the job's
-    dict and key."""
+    """What the files the method reads hold, so a newer trained run is another job under another key
+    (:func:`method_identity` when not given); empty ones are left out of the job's dict and key."""
 
     def __post_init__(self) -> None:
         # the one structural check of a job, where it is made (the CLI, a study, a record

@@ -242,15 +242,14 @@ def polish(
 ) -> PolishResult:
     """Polish ``start`` (dim,) on ``problem`` with at most ``budget`` model evaluations.
 
-    An infeasible start is kept (``"failed: the start is infeasible"``) unless
-    ``infeasible_start``: then the optimiser starts there all the same (SLSQP moves onto the
-    constraints) and any feasible point found is a gain (certificate ``gain`` None).
-    ``keep_certified``: an iterate that passed the KKT stop is reported even up to 1e-6
-    relative below the start (a polished stroke its check could not certify). ``gradient``
-    defaults to :class:`CentralDifferences` with ``config.step``; one gradient's ``cost`` is
-    counted per call and kept back for the certificate's check at the reported stroke, so the
-    total never exceeds ``budget``. Without a feasible stroke better than the start, the start
-    is returned (``"no gain"`` or ``"failed: ..."``)."""
+    An infeasible start is kept (``"failed: the start is infeasible"``) unless ``infeasible_start``:
+    then the optimiser starts there all the same (SLSQP moves onto the constraints) and any feasible
+    point found is a gain (certificate ``gain`` None). ``keep_certified``: an iterate that passed
+    the KKT stop is reported even up to 1e-6 relative below the start (a polished stroke its check
+    could not certify). ``gradient`` defaults to :class:`CentralDifferences` with ``config.step``;
+    one gradient's ``cost`` is counted per call and kept back for the certificate's check at the
+    reported stroke, so the total never exceeds ``budget``. Without a feasible stroke better than
+    the start, the start is returned (``"no gain"`` or ``"failed: ..."``)."""
     x0 = np.asarray(start, dtype=np.float64)
     if not config.enabled:
         return PolishResult(x0, math.nan, Certificate.off())
@@ -328,9 +327,8 @@ class _Climb:
 
 
 def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
-    """The local optimiser from z0 (free coordinates) on ``run``'s allowance and gradient
-    function, each constraint held ``margin`` inside; the best feasible point seen is
-    ``run.best``."""
+    """The local optimiser from z0 (free coordinates) on ``run``'s allowance and gradient function,
+    each constraint held ``margin`` inside; the best feasible point seen is ``run.best``."""
     config = run.config
 
     def fun(z: np.ndarray) -> float:

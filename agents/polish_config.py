@@ -72,9 +72,8 @@ class PolishConfig:
     """Distance to its limit [-] within which a constraint or bound counts as active in the
     certificate, 0 to 1e-2."""
     starts: int = 1
-    """Independent searches (own seeds, equal parts of the budget, each polished) the run
-    reports the best of, 1 to :data:`MAX_STARTS` (docs/harness.md, "Starts and initial
-    strokes")."""
+    """Independent searches (own seeds, equal parts of the budget, each polished) the run reports
+    the best of, 1 to :data:`MAX_STARTS` (docs/harness.md, "Starts and initial strokes")."""
     initial: tuple[tuple[float, ...], ...] = ()
     """Normalised strokes polished directly, each on an equal part of the budget: warm starts
     (feasible or not), e.g. a neighbouring model reading's optimum."""

@@ -121,9 +121,8 @@ class Gradient:
 
 
 class GradientFunction(Protocol):
-    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost``: model evaluations per
-    call at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the
-    certificate."""
+    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost``: model evaluations per call
+    at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the certificate."""
 
     cost: int
     name: str

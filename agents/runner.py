@@ -239,22 +239,21 @@ def run_jobs(
     command: CommandProgress | None = None,
     summary_csv: bool = False,
 ) -> RunSummary:
-    """Run every job (the harness's or another :class:`~agents.jobs.Work` kind's) that has no
-    valid stored record yet, duplicates once, largest budget first.
+    """Run every job (the harness's or another :class:`~agents.jobs.Work` kind's) that has no valid
+    stored record yet, duplicates once, largest budget first.
 
     ``scheduler``: None runs here, one job after another, else :mod:`agents.dask_cluster`'s.
     ``rerun`` runs every job again, replacing its record. ``cache``
     (:data:`~agents.record_cache.CacheOption`): a job without a record in ``out_dir`` takes the
     cache's; every record computed goes to both. A reused record is re-evaluated first: one its
     stroke does not reproduce (:func:`agents.verify.refuted`) is said in a
-    :class:`~agents.records.RecordWarning` and run again. ``command`` is told of every job
-    finished. ``summary_csv`` rewrites ``out_dir``'s ``summary.csv`` when the call ends (after
-    a failure too), the store's paths checked first (:class:`OutputNotWritable`; a store that
-    cannot be written but holds every job is used as it is). Raises :class:`JobsFailed` after
-    the other jobs finished if any job was rejected or raised,
-    :class:`~agents.dask_cluster.SchedulerUnreachable`, and ValueError for a bad ``scheduler``
-    or an ``out_dir`` (or cache folder) that is a file. The summary's ``records`` are the jobs'
-    records, each read at most once.
+    :class:`~agents.records.RecordWarning` and run again. ``command`` is told of every job finished.
+    ``summary_csv`` rewrites ``out_dir``'s ``summary.csv`` when the call ends (after a failure too),
+    the store's paths checked first (:class:`OutputNotWritable`; a store that cannot be written but
+    holds every job is used as it is). Raises :class:`JobsFailed` after the other jobs finished if
+    any job was rejected or raised, :class:`~agents.dask_cluster.SchedulerUnreachable`, and
+    ValueError for a bad ``scheduler`` or an ``out_dir`` (or cache folder) that is a file. The
+    summary's ``records`` are the jobs' records, each read at most once.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()

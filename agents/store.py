@@ -150,10 +150,9 @@ class RecordStore:
         return out if isinstance(out, RecordStore) else cls(out)
 
     def check(self, *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
-        """Check every path the store writes before any work (:func:`output_directory`): the
-        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
-        naming the path and what is allowed, or (without ``write``) False if it cannot be
-        written now."""
+        """Check every path the store writes before any work (:func:`output_directory`): the folder,
+        its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError naming the
+        path and what is allowed, or (without ``write``) False if it cannot be written now."""
         files = (SUMMARY_NAME, *(f"{RECORDS_DIR}/{job.key}.json" for job in jobs))
         return output_directory(
             self._given, "--out", write=write, folders=(RECORDS_DIR,), files=files
