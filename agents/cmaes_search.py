@@ -51,16 +51,14 @@ MAX_SIGMA0 = 2.0
 #: Generations between two stagnation checks: the tests watch slow quantities (a history of
 #: >= 120 generations), and ``should_stop()`` costs about a generation's ``ask``.
 CHECK_EVERY = 10
+#: The default population as a multiple of Hansen's 4 + ⌊3 ln d⌋ (13 at d = 28).
+POPSIZE_MULTIPLE = 4
 
 _SCHEDULES = {
     "none": "no restarts",
     "ipop": "IPOP restarts (Auger & Hansen 2005, Proc. IEEE CEC pp. 1769-1776)",
     "bipop": "BIPOP restarts (Hansen 2009, Proc. GECCO companion pp. 2389-2396)",
 }
-
-
-#: The default population as a multiple of Hansen's 4 + ⌊3 ln d⌋ (13 at d = 28).
-POPSIZE_MULTIPLE = 4
 
 
 def default_popsize(dim: int) -> int:

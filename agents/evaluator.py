@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,8 +21,8 @@ from agents.selection import BestStroke
 from agents.tasks import Condition, TaskSpec
 from tandem_env.envs.base import as_action_type
 from tandem_env.io.files import to_jsonable
+from tandem_env.io.progress_bar import Reporter
 
-BatchCallback = Callable[[int, int, float], None]
 #: How the harness makes a task's vector env: its native one (one model call per step), each
 #: sub-env reset by the harness (with the condition) rather than on its own.
 NATIVE_VECTOR_ENV = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}
@@ -57,7 +57,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         env_kwargs: Mapping[str, Any],
         seed: int,
         budget: int,
-        on_batch: BatchCallback | None = None,
+        on_batch: Reporter | None = None,
     ) -> None:
         super().__init__()
         self.task = task

@@ -26,25 +26,16 @@ MAX_BATCH = MAX_BATCH_STROKES
 
 def integer_setting(minimum: int, maximum: int | None = None, *, default: Any = MISSING) -> Any:
     """A config field of an integer ``>= minimum`` (``<= maximum``), checked by
-    :func:`check_settings`; a None ``default`` also allows None."""
+    :class:`OptimiserConfig`; a None ``default`` also allows None."""
     check = functools.partial(count, low=minimum, high=maximum)
     return field(default=default, metadata={"check": check})
 
 
 def real_setting(low: float, high: float, *, low_inclusive: bool, default: Any = MISSING) -> Any:
-    """A config field of a finite number in the interval, checked by :func:`check_settings`;
+    """A config field of a finite number in the interval, checked by :class:`OptimiserConfig`;
     a None ``default`` also allows None."""
     check = functools.partial(finite_real, low=low, high=high, above=not low_inclusive)
     return field(default=default, metadata={"check": check})
-
-
-def check_settings(config: Any) -> None:
-    """Check every field of ``config`` declared by :func:`integer_setting` or
-    :func:`real_setting` (ValueError naming it), stored as a plain int / float."""
-    for spec in fields(config):
-        value = getattr(config, spec.name)
-        if "check" in spec.metadata and not (value is None and spec.default is None):
-            object.__setattr__(config, spec.name, spec.metadata["check"](value, spec.name))
 
 
 class Tally:
@@ -96,7 +87,12 @@ class OptimiserConfig:
     """Points evaluated (>= 1), the harness's budget; the last round is truncated to fit."""
 
     def __post_init__(self) -> None:
-        check_settings(self)
+        """Check every field declared by :func:`integer_setting` or :func:`real_setting`
+        (ValueError naming it), stored as a plain int / float."""
+        for spec in fields(self):
+            value = getattr(self, spec.name)
+            if "check" in spec.metadata and not (value is None and spec.default is None):
+                object.__setattr__(self, spec.name, spec.metadata["check"](value, spec.name))
 
     def in_use(self) -> dict[str, Any]:
         """What the record adds to (or puts in place of) the settings: the constants and rules
@@ -163,8 +159,7 @@ class AskTellOptimiser(Tally, ABC):
         """Next batch of points (n, dim) in [-1, 1]^dim, the last truncated to the budget."""
         if self._pending is not None:
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
-        n = self._next_size()
-        if n == 0:
+        if (n := self._next_size()) == 0:
             done = f"budget exhausted after {self.evaluations} evaluations; check `done` first"
             raise RuntimeError(done)
         self._pending = self._propose(n)

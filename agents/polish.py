@@ -146,12 +146,7 @@ class _OutOfBudget(Exception):
 
 
 class _Optimal(Exception):
-    """Raised at an iterate that passes the KKT test (``point``: its full stroke)."""
-
-    def __init__(self, point: np.ndarray, objective: float) -> None:
-        super().__init__()
-        self.point = point
-        self.objective = objective
+    """Raised at an iterate that passes the KKT test, with its objective and full stroke."""
 
 
 class _Run:
@@ -341,7 +336,7 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
         grad = run.gradient(z)
         stop = config.optimality
         if stop > 0.0 and grad.feasible and _kkt(run, z, grad)[0] <= stop:
-            raise _Optimal(run.full(z), grad.objective)
+            raise _Optimal(grad.objective, run.full(z))
         return -grad.objective_gradient
 
     def cons(z: np.ndarray) -> np.ndarray:
@@ -378,8 +373,8 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
             # more than 1e-6 (below the digits any table shows; the certificate then checks
             # that point instead)
             best = run.best[0] if run.best is not None else -math.inf
-            if stop.objective >= best - 1e-6 * abs(best):
-                run.best = (stop.objective, stop.point)
+            if stop.args[0] >= best - 1e-6 * abs(best):
+                run.best = stop.args
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             failure = f"failed: {type(error).__name__}: {error}"
     if outcome is None:

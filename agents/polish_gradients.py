@@ -32,9 +32,6 @@ class BatchEvaluation:
     """The m constraints' names."""
 
 
-BatchFunction = Callable[[np.ndarray], BatchEvaluation]
-"""Evaluates normalised strokes (n, dim) in one model call."""
-
 DifferentiateFunction = Callable[[np.ndarray], tuple[BatchEvaluation, np.ndarray, np.ndarray]]
 """Evaluates normalised strokes (n, dim) in one differentiable model call: the evaluation, the
 objective's gradient (n, dim) and the margins' Jacobian (n, m, dim) w.r.t. every coordinate."""
@@ -44,7 +41,8 @@ objective's gradient (n, dim) and the margins' Jacobian (n, m, dim) w.r.t. every
 class Problem:
     """A maximisation over the box [-1, 1]^dim with constraints, some coordinates fixed."""
 
-    evaluate: BatchFunction
+    evaluate: Callable[[np.ndarray], BatchEvaluation]
+    """Evaluates normalised strokes (n, dim) in one model call."""
     dim: int
     free: tuple[int, ...]
     """The coordinates the polish moves (the others stay at the start's values)."""

@@ -121,9 +121,7 @@ class CommandProgress:
     def _say(self, line: str) -> None:
         self.lines.append(line)
         if self.enabled:
-            stream = QuietStream()
-            stream.write(line + "\n")
-            stream.flush()
+            print(line, file=QuietStream(), flush=True)
 
     def announce(self, phases: Sequence[Phase]) -> None:
         """The first line: the whole command (the plan's look-ahead ``phases``) before work."""

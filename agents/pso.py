@@ -53,8 +53,6 @@ LINEAR_W_START = 0.9
 LINEAR_W_END = 0.4
 LINEAR_C = 2.0
 
-_BOX_WIDTH = ACTION_HIGH - ACTION_LOW
-
 _CITATIONS: dict[str, str] = {
     "constriction": (
         "global-best PSO (Kennedy & Eberhart 1995) with Clerc & Kennedy (2002) constriction "
@@ -144,7 +142,7 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
     def __init__(self, dim: int, config: PSOConfig, seed: SeedLike = None) -> None:
         super().__init__(dim, config.swarm_size, config, seed)
         n, d = config.swarm_size, self.dim
-        self._vmax = config.velocity_clamp * _BOX_WIDTH
+        self._vmax = config.velocity_clamp * (ACTION_HIGH - ACTION_LOW)  # the box's width
         self._c1, self._c2 = config.c1, config.c2
         self._boundary = config.boundary
         self._schedule = config.inertia_schedule(-(-config.max_evaluations // n))  # iterations

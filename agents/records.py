@@ -318,8 +318,8 @@ class Record:
             if name in self.metrics:
                 row[name] = self.metrics[name]
         # The stroke (Table 4 units) and its parameters at a bound of the insect's (Table 4's
-        # unless it sets its own); a task of
-        # another action (a plug-in, the analytic test tasks) has no such stroke.
+        # unless it sets its own); a task of another action (a plug-in, the analytic test
+        # tasks) has no such stroke.
         insect = self.job.env("insect")
         if set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):
             stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]
