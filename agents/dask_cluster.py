@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import os
 import re
 import signal
 import socket
@@ -101,16 +100,6 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
     return f"local:{int(workers)}"
 
 
-def set_worker_numba_threads() -> None:
-    """On a Dask worker, before its job: one numba thread for the calling thread's job (a
-    worker runs a job per thread, so cores are not oversubscribed), unless the worker was
-    started with ``NUMBA_NUM_THREADS`` set."""
-    if "NUMBA_NUM_THREADS" not in os.environ:
-        import numba
-
-        numba.set_num_threads(1)
-
-
 def _probe(address: str) -> None:
     """Check that a Dask scheduler answers at ``address`` within :data:`CONNECT_TIMEOUT`: fail
     fast where the client would retry, and read the handshake a scheduler sends first (an
@@ -183,7 +172,7 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
                     processes=True,
                     host="127.0.0.1",
                     dashboard_address="127.0.0.1:0",  # a free port (the dashboard needs bokeh)
-                    env={"NUMBA_NUM_THREADS": "1"},  # a job per core: set_worker_numba_threads
+                    env={"NUMBA_NUM_THREADS": "1"},  # a job per core: agents.runner._on_worker
                     # the runner reports every failed job itself (key and traceback) and Dask
                     # reruns a dead worker's jobs: the cluster's own ERROR logs are noise
                     silence_logs=logging.CRITICAL,

@@ -240,9 +240,8 @@ def finish(
         iterations=first.iterations + last.iterations,
         gradient=f"{first.gradient}, then {last.gradient}",
     )
-    stroke = more.stroke if more.improved else result.stroke
-    objective = more.objective if more.improved else result.objective
-    return PolishResult(stroke, objective, certificate, feasible=True)
+    kept = more if more.improved else result
+    return PolishResult(kept.stroke, kept.objective, certificate, feasible=True)
 
 
 def gradient_cost(dim: int, task: TaskSpec) -> int:

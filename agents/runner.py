@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 import tandem_env
-from agents.dask_cluster import dask_client, parse_scheduler, set_worker_numba_threads
+from agents.dask_cluster import dask_client, parse_scheduler
 from agents.harness import PreparedJob, prepare_job, run_job
 from agents.jobs import Job, Work
 from agents.progress import CommandProgress, Phase
@@ -136,8 +136,13 @@ def _harness_run(job: PreparedJob | Work) -> Record:
 
 
 def _on_worker(job: PreparedJob | Work) -> Record:
-    """What a Dask worker runs: the harness call, with one numba thread per job."""
-    set_worker_numba_threads()
+    """What a Dask worker runs: the harness call, with one numba thread for the calling
+    thread's job (a worker runs a job per thread, so cores are not oversubscribed), unless the
+    worker was started with ``NUMBA_NUM_THREADS`` set."""
+    if "NUMBA_NUM_THREADS" not in os.environ:
+        import numba
+
+        numba.set_num_threads(1)
     return _harness_run(job)
 
 
