@@ -42,8 +42,7 @@ from agents.polish import (
     finishable,
     polish,
 )
-from agents.polish_config import split_settings
-from agents.polish_gradients import env_problem, polishable, task_problem
+from agents.polish_config import env_problem, polishable, split_settings, task_problem
 from agents.records import (
     CERTIFICATE,
     SELECTION_BEST_FEASIBLE,

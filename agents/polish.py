@@ -3,7 +3,7 @@ continuous stroke parameters (each wing's harmonic N held fixed), the box [-1, 1
 and the task's constraints (the signed margins of ``Constraint.margin``) as constraints.
 
 The driver (:func:`polish`, its :class:`Certificate`, the KKT check); the problem, gradients
-(:mod:`agents.polish_gradients`) and settings (:mod:`agents.polish_config`) are imported from
+(:mod:`agents.polish_config`) and settings (:mod:`agents.polish_config`) are imported from
 here too. The budget counts model evaluations (a central-difference gradient at most 2k + 1, an
 autograd gradient one; docs/harness.md, "Local polish"), never exceeded. The result is the best
 feasible point found if it beats the start, cast to float32 (:func:`float32_margin` keeps it
@@ -33,17 +33,15 @@ from agents.polish_config import (  # noqa: F401
     MAX_STARTS,
     POLISH_DEFAULTS,
     POLISH_METHODS,
-    PolishConfig,
-    split_settings,
-)
-from agents.polish_gradients import (  # noqa: F401
     AutogradGradient,
     BatchEvaluation,
     CentralDifferences,
     Gradient,
     GradientFunction,
+    PolishConfig,
     Problem,
     finishable,
+    split_settings,
     task_problem,
 )
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type

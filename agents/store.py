@@ -172,24 +172,20 @@ class RecordStore:
         try:
             record = read_record(path, strict=self.strict, kind=getattr(job, "record_type", Record))
         except (OutdatedRecordError, UnsafeFileError) as error:
-            _warn(f"{error}; {job.label()} is recomputed")
-            return None
+            return _warn(f"{error}; {job.label()} is recomputed")
         except (OSError, RecordError) as error:
             reason = str(error).removeprefix(f"{path}: ")
-            _warn(f"{path}: corrupt record ({reason}); {job.label()} runs again")
-            return None
+            return _warn(f"{path}: corrupt record ({reason}); {job.label()} runs again")
         if record.key != job.key or record.job.configuration() != job.configuration():
-            _warn(
+            return _warn(
                 f"{path}: holds {record.label()} (job {record.job.to_dict()}), not "
                 f"{job.label()}; it runs again and its record replaces the file"
             )
-            return None
         return record
 
     def save(self, record: Record) -> Path:
         """Write ``record`` as ``records/<record.key>.json`` atomically; returns the path."""
-        path = self.path(record.key)
-        data = record.to_dict()
+        path, data = self.path(record.key), record.to_dict()
         try:
             if self.strict:  # the user's alone (unsafe_path), whatever the umask
                 self.directory.mkdir(mode=0o700, parents=True, exist_ok=True)
@@ -246,6 +242,7 @@ class RecordStore:
 
 
 def _warn(message: str) -> None:
+    """Say ``message`` in a :class:`RecordWarning` (None: what a record not served is)."""
     warnings.warn(message, RecordWarning, stacklevel=3)
 
 

@@ -12,7 +12,6 @@ ROOT = Path(__file__).resolve().parents[2]
 MODULES = [
     "agents/polish.py",
     "agents/polish_config.py",
-    "agents/polish_gradients.py",
     "agents/harness.py",
 ]
 #: The env's internals the polish used to reach for: its batched core.
