@@ -102,11 +102,9 @@ class CMAESConfig(OptimiserConfig):
             pairs = tuple(tuple(pair) for pair in self.discrete)
         except TypeError:
             raise ValueError(f"discrete must be {allowed}, got {self.discrete!r}") from None
-        for pair in pairs:
-            if len(pair) != 2:
-                raise ValueError(f"discrete must be {allowed}, got the entry {pair!r}")
-        index = "discrete index"
-        levels = "discrete levels"
+        if bad := [pair for pair in pairs if len(pair) != 2]:
+            raise ValueError(f"discrete must be {allowed}, got the entry {bad[0]!r}")
+        index, levels = "discrete index", "discrete levels"
         pairs = tuple((count(i, index, low=0), count(k, levels, low=2)) for i, k in pairs)
         if len({i for i, _ in pairs}) != len(pairs):
             raise ValueError(f"discrete must be {allowed}; index repeated in {self.discrete!r}")

@@ -74,8 +74,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         """Wall time spent in the vector envs' reset and step [s] (for overhead accounting)."""
 
     def _env(self, n: int) -> gym.vector.VectorEnv:
-        env = self._envs.get(n)
-        if env is None:
+        if (env := self._envs.get(n)) is None:
             env = gym.make_vec(self.task.env_id, num_envs=n, **NATIVE_VECTOR_ENV, **self.env_kwargs)
             # the seed only matters for sampled conditions (none here), but a seeded first
             # reset keeps every generator the env owns reproducible

@@ -350,9 +350,8 @@ def run_jobs(
                 if isinstance(outcome, JobFailure):
                     failures.append(outcome)
                 elif outcome.key != job.key:
-                    failures.append(
-                        JobFailure(job.key, job.label(), f"record has key {outcome.key!r}", "")
-                    )
+                    wrong = f"record has key {outcome.key!r}"
+                    failures.append(JobFailure(job.key, job.label(), wrong, ""))
                 else:
                     store.save(outcome)
                     shared.save(outcome)
@@ -372,11 +371,8 @@ def run_jobs(
         return summary
     finally:
         if summary_csv and not writable:
-            print(
-                f"{store.directory} cannot be written: every seed is stored there, "
-                f"{SUMMARY_NAME} is left as it is",
-                file=sys.stderr,
-            )
+            kept = f"every seed is stored there, {SUMMARY_NAME} is left as it is"
+            print(f"{store.directory} cannot be written: {kept}", file=sys.stderr)
         elif summary_csv and store.directory.exists():
             store.write_summary(records)
 

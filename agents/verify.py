@@ -45,10 +45,9 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
         batches[-1].append(key)
     why: dict[str, str] = {}
     for keys in (batch for batches in groups.values() for batch in batches):
-        job = jobs[keys[0]]
         records = [found[key] for key in keys]
-        try:
-            spec = job.task if isinstance(job, PreparedJob) else get_task(job.task)
+        try:  # a prepared job's task is its spec
+            spec = get_task(jobs[keys[0]].task)
             steps = _step(spec, dict(plain[keys[0]].env_kwargs), records)
         except (ValueError, TypeError, IndexError, RuntimeError, gym.error.Error) as error:
             if len(keys) == 1:
