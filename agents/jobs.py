@@ -274,13 +274,9 @@ class Continuation:
         """``job`` continued in round ``index`` (its seed plus ``index``) from the normalised
         ``strokes``; None gives the stand-in of a job whose optima are not known yet (the
         budget right, the key not final: the cost line's)."""
-        config = dict(job.method_config)
-        if strokes is None:
-            strokes = [(0.0,) * N_PARAMETERS]
-        config.update(
-            initial=[list(map(float, stroke)) for stroke in strokes],
-            initial_share=self.initial_share,
-        )
+        strokes = [(0.0,) * N_PARAMETERS] if strokes is None else strokes
+        initial = [list(map(float, stroke)) for stroke in strokes]
+        config = dict(job.method_config) | {"initial": initial, "initial_share": self.initial_share}
         if self.starts is not None:
             config["starts"] = self.starts
         budget = max(1, round(self.share * job.budget))

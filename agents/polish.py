@@ -420,8 +420,7 @@ def _keep(
     starts from), else (a search's stroke) with the plain margin and activity."""
     found = run.values.get(x0.tobytes())
     if found is None or np.any(found[1] - run.margin < -run.active):
-        run.margin = run.config.margin
-        run.active = run.config.active
+        run.margin, run.active = run.config.margin, run.config.active
     gain = 0.0 if feasible else None
     return replace(_finish(run, x0, before, before, gain, template), feasible=feasible)
 
