@@ -26,16 +26,26 @@ MAX_BATCH = MAX_BATCH_STROKES
 
 def integer_setting(minimum: int, maximum: int | None = None, *, default: Any = MISSING) -> Any:
     """A config field of an integer ``>= minimum`` (``<= maximum``), checked by
-    :class:`OptimiserConfig`; a None ``default`` also allows None."""
+    :func:`check_settings`; a None ``default`` also allows None."""
     check = functools.partial(count, low=minimum, high=maximum)
     return field(default=default, metadata={"check": check})
 
 
 def real_setting(low: float, high: float, *, low_inclusive: bool, default: Any = MISSING) -> Any:
-    """A config field of a finite number in the interval, checked by :class:`OptimiserConfig`;
+    """A config field of a finite number in the interval, checked by :func:`check_settings`;
     a None ``default`` also allows None."""
     check = functools.partial(finite_real, low=low, high=high, above=not low_inclusive)
     return field(default=default, metadata={"check": check})
+
+
+def check_settings(config: Any, prefix: str = "") -> None:
+    """Check every field of ``config`` declared by :func:`integer_setting` or
+    :func:`real_setting` (ValueError naming it, after ``prefix``), stored as a plain int / float."""
+    for spec in fields(config):
+        value = getattr(config, spec.name)
+        if "check" in spec.metadata and not (value is None and spec.default is None):
+            checked = spec.metadata["check"](value, prefix + spec.name)
+            object.__setattr__(config, spec.name, checked)
 
 
 class Tally:
@@ -87,12 +97,7 @@ class OptimiserConfig:
     """Points evaluated (>= 1), the harness's budget; the last round is truncated to fit."""
 
     def __post_init__(self) -> None:
-        """Check every field declared by :func:`integer_setting` or :func:`real_setting`
-        (ValueError naming it), stored as a plain int / float."""
-        for spec in fields(self):
-            value = getattr(self, spec.name)
-            if "check" in spec.metadata and not (value is None and spec.default is None):
-                object.__setattr__(self, spec.name, spec.metadata["check"](value, spec.name))
+        check_settings(self)
 
     def in_use(self) -> dict[str, Any]:
         """What the record adds to (or puts in place of) the settings: the constants and rules

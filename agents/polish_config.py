@@ -15,6 +15,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
+from agents.optimiser import check_settings, integer_setting, real_setting
 from agents.tasks import Condition, TaskSpec
 from tandem_env.envs.problem import FlightProblem, ProblemEvaluation
 from tandem_env.physics.checks import count, finite_real, is_real
@@ -44,38 +45,39 @@ INITIAL_SHARE_RANGE = (0.05, 0.95)
 
 @dataclass(frozen=True)
 class PolishConfig:
-    """Settings of the local polish (validated here, where they enter)."""
+    """Settings of the local polish (validated here, where they enter: the ranges of its
+    numbers are their fields', :func:`~agents.optimiser.check_settings`)."""
 
     method: str = "slsqp"
     """The scipy optimiser (``minimize(method=...)``, :data:`POLISH_METHODS`); ``"none"``
     turns the polish off."""
-    share: float = 0.4
+    share: float = real_setting(0.01, 0.9, low_inclusive=True, default=0.4)
     """Fraction of the run's budget kept for the polish, in [0.01, 0.9], the search getting the
     rest; chosen by measurement (docs/harness.md, "Local polish")."""
-    step: float = 1e-5
+    step: float = real_setting(1e-8, 1e-2, low_inclusive=True, default=1e-5)
     """Central-difference step in normalised units, in [1e-8, 1e-2] (gradients agree to ~1e-7
     relative between 1e-4 and 1e-5)."""
-    tolerance: float = 1e-14
+    tolerance: float = real_setting(1e-14, 1e-2, low_inclusive=True, default=1e-14)
     """Stopping tolerance (SLSQP ``ftol``, absolute; trust-constr ``gtol``/``xtol``), in
     [1e-14, 1e-2]: at 1e-10 SLSQP ended level-flight polishes at KKT residuals of 1.2-2.7e-4;
     at 1e-14 they run on to the KKT stop (``optimality``; docs/harness.md, "Certified")."""
-    max_iterations: int = 200
+    max_iterations: int = integer_setting(1, 10_000, default=200)
     """Optimiser iterations at most, 1 to 10 000."""
-    optimality: float = 1e-5
+    optimality: float = real_setting(0.0, 1e-2, low_inclusive=True, default=1e-5)
     """Stop at the first feasible iterate whose KKT residual (:func:`agents.polish.kkt_residual`)
     is at most this [-] (the certificate then says converged), in [0, 1e-2]; 0: the optimiser's
     own test (``tolerance``), which can stall long after. 1e-5 certified one more of eight seeds
     than 0 at the same budget and optima (docs/harness.md, "Local polish")."""
-    finish: float = 0.1
+    finish: float = real_setting(0.0, 0.5, low_inclusive=True, default=0.1)
     """Fraction of a polish's allowance kept back, in [0, 0.5], where it climbs by central
     differences and the problem differentiates: where the run's reported stroke is not
     certified, :func:`agents.harness.finish` polishes it on with autograd gradients on
     what the run left (central differences misread the gradient where the model's second
     derivative jumps within a step); 0: no finish (docs/harness.md, "Certified")."""
-    margin: float = 1e-9
+    margin: float = real_setting(0.0, 1e-4, low_inclusive=True, default=1e-9)
     """Every constraint is held at margin >= ``margin`` [-] (0 to 1e-4), plus one float32 step
     of every coordinate, so the optimum cast to the action type passes the exact test."""
-    active: float = 1e-6
+    active: float = real_setting(0.0, 1e-2, low_inclusive=True, default=1e-6)
     """Distance to its limit [-] within which a constraint or bound counts as active in the
     certificate, 0 to 1e-2."""
     starts: int = 1
@@ -93,19 +95,7 @@ class PolishConfig:
             raise ValueError(
                 f"polish = {self.method!r}; allowed: {', '.join(map(repr, POLISH_METHODS))}"
             )
-        for name, low, high in (
-            ("share", 0.01, 0.9),
-            ("step", 1e-8, 1e-2),
-            ("tolerance", 1e-14, 1e-2),
-            ("optimality", 0.0, 1e-2),
-            ("finish", 0.0, 0.5),
-            ("margin", 0.0, 1e-4),
-            ("active", 0.0, 1e-2),
-        ):
-            value = finite_real(getattr(self, name), f"polish {name}", low, high)
-            object.__setattr__(self, name, value)
-        iterations = count(self.max_iterations, "polish max_iterations", high=10_000)
-        object.__setattr__(self, "max_iterations", iterations)
+        check_settings(self, "polish ")
         object.__setattr__(self, "starts", count(self.starts, "starts", high=MAX_STARTS))
         object.__setattr__(self, "initial", _strokes(self.initial))
         if self.initial_share is not None:
@@ -282,7 +272,7 @@ class CentralDifferences:
     point on k' bounds takes 2k + 1 − k')."""
 
     problem: Problem
-    step: float = 1e-5
+    step: float = real_setting(1e-8, 1e-2, low_inclusive=True, default=1e-5)
     cost: int = field(init=False)
     name: str = field(init=False, default="central differences")
 
