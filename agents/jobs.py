@@ -77,10 +77,8 @@ def _canonical_env_kwargs(value: Any) -> Any:
     """The job's env keywords with ``insect`` in its canonical form
     (:func:`~tandem_env.envs.config.insect_keyword`; left out for the specimen itself)."""
     items = dict(value.items() if isinstance(value, Mapping) else value)
-    if "insect" in items:
-        insect = insect_keyword(items.pop("insect"))
-        if insect is not None:
-            items["insect"] = insect
+    if "insect" in items and (insect := insect_keyword(items.pop("insect"))) is not None:
+        items["insect"] = insect
     return items
 
 
@@ -162,11 +160,9 @@ class Job:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON form (keyword pairs become objects): what a record stores as ``job``."""
-        data = {f.name: getattr(self, f.name) for f in fields(self)}
-        data["env_kwargs"] = dict(self.env_kwargs)
-        data["method_config"] = dict(self.method_config)
-        if not self.method_identity:
-            del data["method_identity"]
+        skip = () if self.method_identity else ("method_identity",)
+        data = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in skip}
+        data |= {"env_kwargs": dict(self.env_kwargs), "method_config": dict(self.method_config)}
         return to_jsonable(data)
 
     def configuration(self) -> dict[str, Any]:
