@@ -314,9 +314,7 @@ class Record:
         row |= {"condition": c.name, "condition_value": c.value, "condition_unit": c.unit}
         row |= {name: getattr(self, name) for name in _SUMMARY_RESULTS}
         row["wall_time_s"] = self.wall_time
-        for name in SUMMARY_METRICS:
-            if name in self.metrics:
-                row[name] = self.metrics[name]
+        row |= {name: self.metrics[name] for name in SUMMARY_METRICS if name in self.metrics}
         # The stroke (Table 4 units) and its parameters at a bound of the insect's (Table 4's
         # unless it sets its own); a task of another action (a plug-in, the analytic test
         # tasks) has no such stroke.
