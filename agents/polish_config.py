@@ -10,7 +10,7 @@ import contextlib
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -255,16 +255,6 @@ class Gradient:
     """Model evaluations it took (at most its function's ``cost``)."""
 
 
-class GradientFunction(Protocol):
-    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost``: model evaluations per call
-    at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the certificate."""
-
-    cost: int
-    name: str
-
-    def __call__(self, x: np.ndarray) -> Gradient: ...
-
-
 @dataclass(frozen=True)
 class CentralDifferences:
     """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call
@@ -319,6 +309,11 @@ class AutogradGradient:
         assert differentiate is not None  # checked in __post_init__
         batch, d_obj, d_margins = differentiate(np.asarray(x, dtype=np.float64)[None, :])
         return _gradient(batch, d_obj[0, free], d_margins[0][:, free], 1)
+
+
+GradientFunction = CentralDifferences | AutogradGradient
+"""``gradient(x) -> Gradient`` at the full point x (dim,); ``cost``: model evaluations per call
+at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the certificate."""
 
 
 def _gradient(

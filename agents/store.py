@@ -229,9 +229,8 @@ class RecordStore:
         return found
 
     def write_summary(self, known: Mapping[str, Record] | None = None) -> Path:
-        """Rewrite ``DIR/summary.csv`` atomically, a row (:meth:`Record.summary_row`) per record
-        in the store (each file read at most once, none of ``known``: :meth:`records`, in its
-        order); its path."""
+        """Rewrite ``DIR/summary.csv`` atomically (its path returned), a row
+        (:meth:`Record.summary_row`) per record in :meth:`records`' order (none of ``known`` read)."""
         path = self.directory / SUMMARY_NAME
         rows = [record.summary_row() for record in self.records(known)]
         try:
