@@ -209,17 +209,14 @@ class _Display:
         n = len(self.jobs)
         noun = getattr(self.jobs[0], "noun", "optimisation") if self.jobs else ""
         # On Dask the bar moves as jobs finish; serially, reporter() says what it waits for.
-        self.bar = ProgressBar(
-            total, f"{n} {noun}{'s' * (n != 1)}", self.enabled, waiting=DASK_WAITING
-        )
+        label = f"{n} {noun}{'s' * (n != 1)}"
+        self.bar = ProgressBar(total, label, self.enabled, waiting=DASK_WAITING)
 
     def reporter(self, job: Job | Work) -> Reporter:
         """Live progress of a job running in this process."""
         if self.done == 0:
             self.bar.waiting()
-        return lambda iteration, evaluations, best: self.bar.move_to(
-            self.evaluations + min(evaluations, job.budget)
-        )
+        return lambda i, done, b: self.bar.move_to(self.evaluations + min(done, job.budget))
 
     def finished(self, job: Job | Work, outcome: Outcome) -> None:
         self.done += 1
