@@ -162,11 +162,8 @@ def initial_part(
         evaluations += 1
     reward = float(objective) if objective is not None and feasible else -math.inf
     selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
-    feasible = feasible and objective is not None
-    seed = prepared.job.seed
-    return Part(
-        "initial", seed, result.stroke, reward, feasible, selection, certificate, evaluations
-    )
+    found = (result.stroke, reward, feasible and objective is not None, selection)
+    return Part("initial", prepared.job.seed, *found, certificate, evaluations)
 
 
 def finish_part(

@@ -22,7 +22,7 @@ import contextlib
 import math
 import warnings
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -147,33 +147,29 @@ class _Optimal(Exception):
     """Raised at an iterate that passes the KKT test, with its objective and full stroke."""
 
 
+@dataclass(eq=False)
 class _Run:
     """The bookkeeping of one polish: budget, cache by point, best feasible point seen."""
 
-    def __init__(
-        self,
-        problem: Problem,
-        start: np.ndarray,
-        allowance: int,
-        gradient: GradientFunction,
-        config: PolishConfig,
-    ) -> None:
-        self.problem = problem
-        self.config = config
-        self.start = start
-        self.free = np.asarray(problem.free)
-        self.allowance = allowance
-        self.gradient_function = gradient
-        self.used = 0
-        self.values: dict[bytes, tuple[float, np.ndarray, bool]] = {}
-        self.gradients: dict[bytes, Gradient] = {}
-        self.best: tuple[float, np.ndarray] | None = None
-        self.margin: np.ndarray | float = 0.0
-        """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
-        self.active: float = config.active
-        """How near its held margin a constraint counts as active [-]: ``config.active`` plus
-        the largest float32 step of :func:`float32_margin` (the reported stroke is cast to
-        float32, which moves each margin by up to half its step)."""
+    problem: Problem
+    start: np.ndarray
+    allowance: int
+    gradient_function: GradientFunction
+    config: PolishConfig
+    used: int = 0
+    values: dict[bytes, tuple[float, np.ndarray, bool]] = field(default_factory=dict)
+    gradients: dict[bytes, Gradient] = field(default_factory=dict)
+    best: tuple[float, np.ndarray] | None = None
+    margin: np.ndarray | float = 0.0
+    """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
+    active: float = 0.0
+    """How near its held margin a constraint counts as active [-]: ``config.active`` plus
+    the largest float32 step of :func:`float32_margin` (the reported stroke is cast to
+    float32, which moves each margin by up to half its step)."""
+
+    def __post_init__(self) -> None:
+        self.free = np.asarray(self.problem.free)
+        self.active = self.config.active
 
     def full(self, z: np.ndarray) -> np.ndarray:
         x = self.start.copy()
@@ -277,11 +273,9 @@ def polish(
         return _keep(run, x0, before, failed, False)
 
     climb = _climb(run, z0, margin)
-    failure, iterations = climb.failure, climb.iterations
-    converged = True if climb.optimal else climb.success
-    optimal = f"KKT residual <= {config.optimality:g} at a feasible iterate"
-    message = optimal if climb.optimal else climb.message
-    template = replace(template, iterations=iterations, converged=converged, message=message)
+    failure, optimal = climb.failure, f"KKT residual <= {config.optimality:g} at a feasible iterate"
+    converged, message = (True, optimal) if climb.optimal else (climb.success, climb.message)
+    template = replace(template, iterations=climb.iterations, converged=converged, message=message)
     # a start already polished (:func:`agents.harness.finish`'s) gives way to the iterate
     # that passed the KKT stop beside it, within the 1e-6 of the stop's rule, to certify it
     settled = keep_certified and climb.optimal and run.best is not None
