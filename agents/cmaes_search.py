@@ -209,10 +209,9 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         # cmaes minimises: tell the negated fitness (NaN, mapped to -inf, becomes +inf).
         self._es.tell(list(zip(self._raw, (-fitness).tolist(), strict=True)))
         run.generations = self._es.generation
-        if self.config.restarts != "none" and len(self._best) % CHECK_EVERY == 0:
-            stop = self._stop()
-            if stop is not None:
-                self._restart(stop)
+        check = self.config.restarts != "none" and len(self._best) % CHECK_EVERY == 0
+        if check and (stop := self._stop()) is not None:
+            self._restart(stop)
 
     def _stop(self) -> str | None:
         """Why the current run should end now, or None: the newest 30 % of the window no better

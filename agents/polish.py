@@ -65,11 +65,9 @@ def kkt_residual(
     """
     g = np.asarray(objective_gradient, dtype=np.float64)
     norm = float(np.linalg.norm(g))
-    if np.any(margins < -active):
-        return math.inf, margins <= active, np.zeros(g.size, dtype=bool)
-    if norm == 0.0:
-        return 0.0, margins <= active, np.zeros(g.size, dtype=bool)
-    on_constraint = margins <= active
+    on_constraint, infeasible = margins <= active, bool(np.any(margins < -active))
+    if infeasible or norm == 0.0:
+        return (math.inf if infeasible else 0.0), on_constraint, np.zeros(g.size, dtype=bool)
     upper = x_free >= 1.0 - active
     lower = x_free <= -1.0 + active
     eye = np.eye(g.size)
