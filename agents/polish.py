@@ -270,13 +270,11 @@ def polish(
         failed = replace(template, status="failed: the start is infeasible")
         return _keep(run, x0, before, failed, False)
 
-    climb = _climb(run, z0, margin)
-    failure, optimal = climb.failure, f"KKT residual <= {config.optimality:g} at a feasible iterate"
-    converged, message = (True, optimal) if climb.optimal else (climb.success, climb.message)
-    template = replace(template, iterations=climb.iterations, converged=converged, message=message)
+    optimal, failure, ended = _climb(run, z0, margin)
+    template = replace(template, **ended)
     # a start already polished (:func:`agents.harness.finish`'s) gives way to the iterate
     # that passed the KKT stop beside it, within the 1e-6 of the stop's rule, to certify it
-    settled = keep_certified and climb.optimal and run.best is not None
+    settled = keep_certified and optimal and run.best is not None
     settled = settled and not np.array_equal(run.best[1], x0)
     if run.best is None or (first.feasible and run.best[0] <= before and not settled):
         status = "no gain" if not failure.startswith("failed") else failure
@@ -297,23 +295,13 @@ def polish(
     return result
 
 
-@dataclass(frozen=True)
-class _Climb:
-    """How one run of the local optimiser ended."""
-
-    optimal: bool
-    """It stopped at an iterate that passed the KKT test (``config.optimality``)."""
-    success: bool | None
-    """The optimiser's own convergence test (scipy ``success``); None where it did not end."""
-    message: str
-    failure: str
-    """``"allowance used up"``, ``"failed: ..."`` or empty."""
-    iterations: int
-
-
-def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
+def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> tuple[bool, str, dict[str, Any]]:
     """The local optimiser from z0 (free coordinates) on ``run``'s allowance and gradient function,
-    each constraint held ``margin`` inside; the best feasible point seen is ``run.best``."""
+    each constraint held ``margin`` inside; the best feasible point seen is ``run.best``. How it
+    ended: whether it stopped at an iterate that passed the KKT test (``config.optimality``), its
+    failure (``"allowance used up"``, ``"failed: ..."`` or empty), and the certificate's
+    ``iterations``, ``converged`` (the optimiser's own test, scipy ``success``; None where it did
+    not end) and ``message``."""
     config = run.config
 
     def fun(z: np.ndarray) -> float:
@@ -367,13 +355,16 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
                 run.best = stop.args
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             failure = f"failed: {type(error).__name__}: {error}"
-    if outcome is None:
-        return _Climb(optimal, None, failure, failure, len(counter))
-    # the optimiser's last point, for the certificate (it is feasible only if it says so)
-    with contextlib.suppress(_OutOfBudget):
-        run.value(np.asarray(outcome.x))
-    iterations = int(outcome.get("nit", len(counter)))
-    return _Climb(optimal, bool(outcome.success), str(outcome.message), failure, iterations)
+    converged, message, iterations = None, failure, len(counter)
+    if outcome is not None:
+        # the optimiser's last point, for the certificate (it is feasible only if it says so)
+        with contextlib.suppress(_OutOfBudget):
+            run.value(np.asarray(outcome.x))
+        converged, message = bool(outcome.success), str(outcome.message)
+        iterations = int(outcome.get("nit", len(counter)))
+    if optimal:
+        converged, message = True, f"KKT residual <= {config.optimality:g} at a feasible iterate"
+    return optimal, failure, {"iterations": iterations, "converged": converged, "message": message}
 
 
 def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
