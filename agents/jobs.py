@@ -73,15 +73,6 @@ class FrozenMapping(Mapping[str, Any]):
         return repr(self._items)
 
 
-def _canonical_env_kwargs(value: Any) -> Any:
-    """The job's env keywords with ``insect`` in its canonical form
-    (:func:`~tandem_env.envs.config.insect_keyword`; left out for the specimen itself)."""
-    items = dict(value.items() if isinstance(value, Mapping) else value)
-    if "insect" in items and (insect := insect_keyword(items.pop("insect"))) is not None:
-        items["insect"] = insect
-    return items
-
-
 def method_identity(spec: str, config: Mapping[str, Any]) -> str:
     """The identity of the files the method ``spec`` (with settings ``config``) reads: its
     ``identity()``, asked only of a method that takes a path (``name:ARGUMENT``); empty for
@@ -138,7 +129,12 @@ class Job:
         object.__setattr__(self, "condition", float(self.condition))
         object.__setattr__(self, "budget", budget)
         object.__setattr__(self, "seed", count(self.seed, "seed", low=0))
-        object.__setattr__(self, "env_kwargs", _pairs(_canonical_env_kwargs(self.env_kwargs)))
+        # ``insect`` in its canonical form (:func:`~tandem_env.envs.config.insect_keyword`),
+        # left out for the specimen itself
+        kwargs = dict(self.env_kwargs)
+        if "insect" in kwargs and (insect := insect_keyword(kwargs.pop("insect"))) is not None:
+            kwargs["insect"] = insect
+        object.__setattr__(self, "env_kwargs", _pairs(kwargs))
         object.__setattr__(self, "method_config", _pairs(self.method_config))
         if self.method_identity is None:
             identity = method_identity(self.method, dict(self.method_config))
