@@ -403,9 +403,7 @@ def find_records(
 ) -> dict[Job, Record] | None:
     """The records of ``jobs`` as :func:`run_jobs` would find them (``out_dir``, then the
     record cache), writing and warning nothing; None if any is missing."""
-    stores = [RecordStore.at(out_dir)]
-    if (shared := record_cache(cache)) is not None:
-        stores.append(shared)
+    stores = [s for s in (RecordStore.at(out_dir), record_cache(cache)) if s is not None]
     found: dict[Job, Record] = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RecordWarning)  # said by run_jobs, when it runs them
