@@ -29,7 +29,7 @@ import gymnasium as gym
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from agents.evaluator import Reevaluation, VectorEnvEvaluator, reevaluate
+from agents.evaluator import VectorEnvEvaluator, reevaluate
 from agents.jobs import Job
 from agents.methods import Method, SearchContext, SearchOutcome, get_method
 from agents.polish import (
@@ -490,43 +490,36 @@ def run_job(
         if not chosen.feasible and chosen.kind == "initial":
             # an infeasible initial stroke has no search reward: the re-evaluation's is its own
             chosen = replace(chosen, reward=again.reward)
-        results = _results(prepared, chosen, parts, again, evaluations)
-        results["wall_time"] = time.perf_counter() - start
+        search_reward, action = chosen.reward, chosen.action
+        if not np.isclose(again.reward, search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
+            differs = f"re-evaluated reward {again.reward!r} differs from the search's"
+            message = f"{prepared.job.label()}: {differs} {search_reward!r}"
+            warnings.warn(message, RuntimeWarning, stacklevel=2)
+        # the record's results (:data:`agents.records.RESULTS`) from the re-evaluation
+        results = {
+            "env_id": prepared.task.env_id,
+            "objective_name": prepared.objective_name,
+            "condition_name": prepared.condition.name,
+            "condition_unit": prepared.condition.unit,
+            "evaluations": int(evaluations),
+            **stepped_results(again.reward, again.info, action),  # what a reuse checks again
+            "search_reward": search_reward,
+            "selection": chosen.selection,
+            "normalised_stroke": action.tolist(),
+            "history": [[int(e), float(b)] for e, b in search_history(parts)],
+            "wall_time": time.perf_counter() - start,
+            # a polished initial stroke: the method did not run there, so its name only
+            "method_settings": to_jsonable(
+                {"algorithm": prepared.job.method, "note": "initial stroke polished; no search"}
+                if chosen.outcome is None
+                else chosen.outcome.config
+            ),
+            "env": to_jsonable(again.env_config),
+            "versions": package_versions(),
+            CERTIFICATE: chosen.certificate.to_dict(),
+            **({STARTS: [part.summary() for part in parts]} if len(parts) > 1 else {}),
+        }
         return Record(job=prepared.job, key=prepared.job.key, results=results)
-
-
-def _results(
-    prepared: PreparedJob, chosen: Part, parts: list[Part], again: Reevaluation, evaluations: int
-) -> dict[str, Any]:
-    """The record's results (:data:`agents.records.RESULTS`) from the re-evaluation."""
-    action, search_reward, selection = chosen.action, chosen.reward, chosen.selection
-    if not np.isclose(again.reward, search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
-        differs = f"re-evaluated reward {again.reward!r} differs from the search's"
-        message = f"{prepared.job.label()}: {differs} {search_reward!r}"
-        warnings.warn(message, RuntimeWarning, stacklevel=3)
-    return {
-        "env_id": prepared.task.env_id,
-        "objective_name": prepared.objective_name,
-        "condition_name": prepared.condition.name,
-        "condition_unit": prepared.condition.unit,
-        "evaluations": int(evaluations),
-        **stepped_results(again.reward, again.info, action),  # what a reuse checks again
-        "search_reward": search_reward,
-        "selection": selection,
-        "normalised_stroke": action.tolist(),
-        "history": [[int(e), float(b)] for e, b in search_history(parts)],
-        "wall_time": 0.0,
-        # a polished initial stroke: the method did not run there, so its name only
-        "method_settings": to_jsonable(
-            {"algorithm": prepared.job.method, "note": "initial stroke polished; no search"}
-            if chosen.outcome is None
-            else chosen.outcome.config
-        ),
-        "env": to_jsonable(again.env_config),
-        "versions": package_versions(),
-        CERTIFICATE: chosen.certificate.to_dict(),
-        **({STARTS: [part.summary() for part in parts]} if len(parts) > 1 else {}),
-    }
 
 
 def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
