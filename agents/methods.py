@@ -84,8 +84,7 @@ class SearchOutcome:
             raise ValueError(f"best_action must be 1-D; got shape {action.shape}")
         action.setflags(write=False)
         object.__setattr__(self, "best_action", action)
-        history = tuple((int(e), float(b)) for e, b in self.history)
-        object.__setattr__(self, "history", history)
+        object.__setattr__(self, "history", tuple((int(e), float(b)) for e, b in self.history))
 
 
 @runtime_checkable

@@ -152,8 +152,7 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
         self._pbest_x = self._x.copy()
         self._pbest_f = np.full(n, -np.inf)
         self._gbest = 0
-        self._candidate_x = self._x
-        self._candidate_v = self._v
+        self._candidate_x, self._candidate_v = self._x, self._v
 
     @property
     def inertia_schedule(self) -> FloatArray:
