@@ -132,14 +132,11 @@ def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
     for stroke in value:
         if isinstance(stroke, str | bytes) or not isinstance(stroke, list | tuple | np.ndarray):
             raise ValueError(f"initial stroke {stroke!r}; allowed: {allowed}")
-        for v in stroke:
-            if not (is_real(v) and math.isfinite(v) and -1.0 <= v <= 1.0):
-                raise ValueError(f"initial stroke value {v!r}; allowed: {allowed}")
+        if bad := [v for v in stroke if not (is_real(v) and math.isfinite(v) and -1 <= v <= 1)]:
+            raise ValueError(f"initial stroke value {bad[0]!r}; allowed: {allowed}")
         strokes.append(tuple(float(v) for v in stroke))
-    if len({len(s) for s in strokes}) > 1:
-        raise ValueError(
-            f"initial strokes of lengths {sorted({len(s) for s in strokes})}; allowed: {allowed}"
-        )
+    if len(lengths := sorted({len(s) for s in strokes})) > 1:
+        raise ValueError(f"initial strokes of lengths {lengths}; allowed: {allowed}")
     return tuple(strokes)
 
 

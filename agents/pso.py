@@ -144,7 +144,6 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
         n, d = config.swarm_size, self.dim
         self._vmax = config.velocity_clamp * (ACTION_HIGH - ACTION_LOW)  # the box's width
         self._c1, self._c2 = config.c1, config.c2
-        self._boundary = config.boundary
         self._schedule = config.inertia_schedule(-(-config.max_evaluations // n))  # iterations
         self._schedule.setflags(write=False)
         self._x = self._rng.uniform(ACTION_LOW, ACTION_HIGH, (n, d))
@@ -187,7 +186,7 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
         # landing exactly on a wall (e.g. -1 + vmax = 1 with the full-width clamp) is a hit
         # too: a particle there keeps no outward velocity
         hit = (x <= ACTION_LOW) | (x >= ACTION_HIGH)
-        if self._boundary == "clip":
+        if self.config.boundary == "clip":
             v[hit] = 0.0
         else:
             # One mirror suffices: |v| <= box width, so x + v is at most one width outside.
