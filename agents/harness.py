@@ -221,13 +221,12 @@ def finish(
         return replace(result, certificate=replace(first, message=message))
     last = more.certificate
     before = first.objective_before
-    improved = more.improved or result.improved
     gain = first.gain
     if more.improved and before is not None and first.gain is not None and before != 0.0:
         gain = (more.objective - before) / abs(before)
     certificate = replace(
         last,
-        status="improved" if improved else first.status,
+        status="improved" if more.improved or result.improved else first.status,
         gain=gain,
         objective_before=before,
         objective_after=more.objective if more.improved else first.objective_after,
