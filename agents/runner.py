@@ -205,8 +205,7 @@ class _Display:
     best: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        total = sum(j.budget for j in self.jobs)
-        n = len(self.jobs)
+        total, n = sum(j.budget for j in self.jobs), len(self.jobs)
         noun = getattr(self.jobs[0], "noun", "optimisation") if self.jobs else ""
         # On Dask the bar moves as jobs finish; serially, reporter() says what it waits for.
         label = f"{n} {noun}{'s' * (n != 1)}"
@@ -223,8 +222,7 @@ class _Display:
         self.evaluations += job.budget
         if isinstance(job, Job) and isinstance(outcome, Record) and outcome.feasible:
             series = " ".join([job.task, *(str(v) for k, v in job.env_kwargs if k == "objective")])
-            if outcome.objective > self.best.get(series, -math.inf):
-                self.best[series] = outcome.objective
+            self.best[series] = max(self.best.get(series, -math.inf), outcome.objective)
         bests = ", ".join(f"{k} {v:.3g}" for k, v in sorted(self.best.items()))
         best = f"; best feasible: {bests or '-'}" if isinstance(job, Job) else ""
         self.bar.move_to(self.evaluations, f"{self.done}/{len(self.jobs)} jobs{best}")
