@@ -1,7 +1,7 @@
 """The record cache: one store of records shared by every output folder (docs/harness.md, "The
-record cache"). Its
-folder and files must be the user's own (:func:`record_cache`); what it serves is re-evaluated
-first (:mod:`agents.verify`); a method that takes a path is never cached (:func:`cacheable`).
+record cache"). Its folder and files must be the user's own (:func:`record_cache`); what it
+serves is re-evaluated first (:mod:`agents.verify`); a method that takes a path is never cached
+(:func:`cacheable`).
 """
 
 from __future__ import annotations

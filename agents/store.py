@@ -55,11 +55,10 @@ class StoreWriteError(OSError):
     are kept, and the same command resumes from them once the cause is fixed."""
 
     def __init__(self, path: Path, error: OSError) -> None:
-        reason = error.strerror or str(error)
         super().__init__(
             error.errno,
-            f"cannot write {path} ({reason}); it is left as it was and the records already "
-            "stored are kept: fix that and run the same command again to resume",
+            f"cannot write {path} ({error.strerror or error}); it is left as it was and the "
+            "records already stored are kept: fix that and run the same command again to resume",
         )
         self.path = path
 
