@@ -1,11 +1,10 @@
 """Search methods the harness can run, and the registry that names them.
 
 A method has a ``name`` and ``search(context) -> SearchOutcome``: an optimiser calls
-``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context.
-A method's module registers it when imported (:func:`register_optimiser`,
-:func:`register_method`), found by its name in a ``tandem_env.optimisers`` entry point
-(this project's in its pyproject.toml, ``train``'s included; a plug-in's in its own;
-docs/harness.md, "Methods: protocol and registry").
+``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context. A
+method's module registers it when imported (:func:`register_optimiser`, :func:`register_method`),
+found by its name in a ``tandem_env.optimisers`` entry point (this project's in its pyproject.toml,
+``train``'s included; a plug-in's in its own; docs/harness.md, "Methods: protocol and registry").
 """
 
 from __future__ import annotations

@@ -57,11 +57,10 @@ def kkt_residual(
 ) -> tuple[float, np.ndarray, np.ndarray]:
     """First-order optimality of a maximum of f subject to c >= 0 and -1 <= x <= 1.
 
-    ∇f + Σ λ_i ∇c_i = 0, λ_i >= 0 over the active constraints (c_i <= ``active``) and bounds,
-    solved by non-negative least squares. Returns (residual ||∇f + Σ λ_i ∇c_i|| / ||∇f|| [-],
-    active constraint mask, active bound mask): the residual is near 0 at a KKT point, of order 1
-    where f can still rise feasibly, 0 where ∇f = 0, inf at an infeasible point (some
-    c_i < -active).
+    ∇f + Σ λ_i ∇c_i = 0, λ_i >= 0 over the active constraints (c_i <= ``active``) and bounds, solved
+    by non-negative least squares. Returns (residual ||∇f + Σ λ_i ∇c_i|| / ||∇f|| [-], active
+    constraint mask, active bound mask): the residual is near 0 at a KKT point, of order 1 where f
+    can still rise feasibly, 0 where ∇f = 0, inf at an infeasible point (some c_i < -active).
     """
     g = np.asarray(objective_gradient, dtype=np.float64)
     norm = float(np.linalg.norm(g))
