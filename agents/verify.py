@@ -82,14 +82,14 @@ def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> 
             _, rewards, _, _, infos = env.step(actions)
             steps = range(len(records))
             return [stepped_results(rewards[i], _row(infos, i), actions[i]) for i in steps]
-    steps = []  # each stroke re-evaluated as :func:`agents.harness.run_job` evaluated it
+    stepped = []  # each stroke re-evaluated as :func:`agents.harness.run_job` evaluated it
     for record, action in zip(records, actions, strict=True):
         condition = spec.condition(record.job.condition)
         made = {**kwargs, condition.name: condition.value}
         with gym.make(spec.env_id, disable_env_checker=True, **made) as env:
             again = reevaluate(env, spec, condition, record.job.seed, action)
-        steps.append(stepped_results(again.reward, again.info, action))
-    return steps
+        stepped.append(stepped_results(again.reward, again.info, action))
+    return stepped
 
 
 def _row(infos: Mapping[str, Any], i: int) -> dict[str, Any]:
