@@ -228,8 +228,9 @@ class RecordStore:
         return found
 
     def write_summary(self, known: Mapping[str, Record] | None = None) -> Path:
-        """Rewrite ``DIR/summary.csv`` atomically (its path returned), a row
-        (:meth:`Record.summary_row`) per record in :meth:`records`' order (none of ``known`` read)."""
+        """Rewrite ``DIR/summary.csv`` atomically (its path returned): a row
+        (:meth:`Record.summary_row`) per record, in :meth:`records`' order (each file read at
+        most once, none of ``known``)."""
         path = self.directory / SUMMARY_NAME
         rows = [record.summary_row() for record in self.records(known)]
         try:
