@@ -67,8 +67,7 @@ def parse_scheduler(text: str) -> str:
     scheme, _, rest = text.rpartition("://")
     if scheme and scheme != SCHEME:
         raise refused(f": the scheme {scheme + '://'!r} is not supported")
-    match = re.fullmatch(r"(\[[0-9a-fA-F:]+\]|[^\s/:\[\]]+):(\d{1,6})", rest)
-    if match is None:
+    if (match := re.fullmatch(r"(\[[0-9a-fA-F:]+\]|[^\s/:\[\]]+):(\d{1,6})", rest)) is None:
         raise refused()
     host, port = match.groups()
     if not host.startswith("[") and not _HOST.fullmatch(host):

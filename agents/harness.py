@@ -404,8 +404,7 @@ def prepare(
     spec = get_task(task)
     kwargs = dict(env_kwargs or {})
     if objective is not None:
-        keyword = spec.declared_objectives.keyword
-        if keyword is None:
+        if (keyword := spec.declared_objectives.keyword) is None:
             raise ValueError(
                 f"task {spec.name!r} has one objective ({spec.declared_objectives.default}); "
                 "objective cannot be chosen"
@@ -414,8 +413,7 @@ def prepare(
         if given is not None and given != objective:
             raise ValueError(f"objective = {objective!r} but env_kwargs[{keyword!r}] = {given!r}")
         kwargs[keyword] = objective
-    seed_list = list(seeds)
-    if not seed_list:
+    if not (seed_list := list(seeds)):
         raise ValueError("seeds is empty; allowed: one or more integers >= 0")
     # A method given by name is resolved, its settings checked, with the job (prepare_job).
     method_obj, settings = None, dict(method_config or {})

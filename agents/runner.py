@@ -386,8 +386,7 @@ def job_records(out_dir: Out, jobs: Iterable[Job]) -> dict[Job, Record]:
     store = RecordStore.at(out_dir)
     found: dict[Job, Record] = {}
     for job in jobs:
-        record = store.load(job)
-        if record is None:
+        if (record := store.load(job)) is None:
             raise FileNotFoundError(
                 f"no record for {job.label()} (key {job.key}) in "
                 f"{store.directory / RECORDS_DIR}; run the study"
