@@ -177,8 +177,7 @@ def finish_part(
     if not prepared.polish.enabled or not part.feasible or not ran or certified(part.certificate):
         return part  # nothing to finish: the problem is not built
     started = PolishResult(part.action, part.reward, part.certificate, feasible=True)
-    done = finish(problem(), started, allowance, prepared.polish)
-    if done is started:
+    if (done := finish(problem(), started, allowance, prepared.polish)) is started:
         return part
     evaluations = part.evaluations + done.certificate.evaluations - part.certificate.evaluations
     selection = part.selection
@@ -377,8 +376,7 @@ def prepare_job(
     method_obj = get_method(job.method, own_config) if method is None else method
     # optional: a method that can tell it cannot run this budget on this box (a budget smaller
     # than one CMA-ES population) says so here, not mid-run
-    check = getattr(method_obj, "check", None)
-    if callable(check):
+    if callable(check := getattr(method_obj, "check", None)):
         check(part - reserve, dim, spec)
     return PreparedJob(job, method_obj, spec, cond, kwargs, objective_name, dim, polish_config)
 
@@ -409,8 +407,7 @@ def prepare(
                 f"task {spec.name!r} has one objective ({spec.declared_objectives.default}); "
                 "objective cannot be chosen"
             )
-        given = kwargs.get(keyword)
-        if given is not None and given != objective:
+        if (given := kwargs.get(keyword)) is not None and given != objective:
             raise ValueError(f"objective = {objective!r} but env_kwargs[{keyword!r}] = {given!r}")
         kwargs[keyword] = objective
     if not (seed_list := list(seeds)):

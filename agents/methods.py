@@ -189,8 +189,7 @@ def register_optimiser(
 
 def preset_batch_setting(method: str) -> str | None:
     """The setting of ``method`` (a spec) that a study's preset swarm size sets, or None."""
-    name = method.partition(":")[0]
-    if name not in _REGISTRY and name in providers():
+    if (name := method.partition(":")[0]) not in _REGISTRY and name in providers():
         with contextlib.suppress(NotImplementedError):  # a provider that is not there: none
             _factory(name)  # registers it (and its batch setting)
     return _PRESET_BATCH.get(name)
@@ -230,8 +229,7 @@ def available_methods() -> tuple[str, ...]:
 def _factory(name: str) -> MethodFactory:
     if name in _REGISTRY:
         return _REGISTRY[name]
-    known = providers()
-    if name not in known:
+    if name not in (known := providers()):
         installed = "" if known else " (no entry points installed: pip install -e . here)"
         raise ValueError(
             f"unknown method {name!r}; allowed: {', '.join(available_methods())} "

@@ -311,8 +311,7 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> tuple[bool, str, di
         # passes the KKT test (its own test watches the objective's change, which can stall
         # long before it passes near active constraints, at 53 strokes a step).
         grad = run.gradient(z)
-        stop = config.optimality
-        if stop > 0.0 and grad.feasible and _kkt(run, z, grad)[0] <= stop:
+        if config.optimality > 0.0 and grad.feasible and _kkt(run, z, grad)[0] <= config.optimality:
             raise _Optimal(grad.objective, run.full(z))
         return -grad.objective_gradient
 

@@ -143,8 +143,7 @@ class CommandProgress:
         """The line at the start of the last phase ``started`` (none for the first)."""
         self._plan(phases, started)
         name = started[-1].name
-        place = list(self._phases).index(name) + 1
-        if place == 1:
+        if (place := list(self._phases).index(name) + 1) == 1:
             return
         c = self.counts()
         finished = c["done"] + c["stored"] + c["cached"]

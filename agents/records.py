@@ -262,8 +262,7 @@ class Record:
                 f"record data is {type(data).__name__} {short_repr(data)}; allowed: a JSON object "
                 f"with schema {SCHEMA!r}"
             )
-        schema = data.get("schema")
-        if schema in OLD_SCHEMAS:
+        if (schema := data.get("schema")) in OLD_SCHEMAS:
             raise OutdatedRecordError(
                 f"a record of the earlier format {schema!r} (now {SCHEMA!r}); it is not read "
                 "as a result: rerun the command that wrote it to recompute it"

@@ -165,8 +165,7 @@ class RecordStore:
         """The stored record of ``job``, or None if it has not run with this configuration; a
         file that is not a valid, trusted record of ``job`` is said in a :class:`RecordWarning`
         and treated as missing, so the job runs again and its record replaces the file."""
-        path = self.path(job.key)
-        if not path.exists():
+        if not (path := self.path(job.key)).exists():
             return None
         try:
             record = read_record(path, strict=self.strict, kind=getattr(job, "record_type", Record))
