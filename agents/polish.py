@@ -381,18 +381,6 @@ def _kkt(run: _Run, z: np.ndarray, grad: Gradient) -> tuple[float, np.ndarray, n
     return kkt_residual(grad.objective_gradient, margins, grad.jacobian, z, run.active)
 
 
-def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
-    """KKT residual and active constraints at x (one more gradient unless cached)."""
-    try:
-        grad = run.gradient(x[run.free])
-    except _OutOfBudget:
-        return None, ()
-    residual, on_constraint, on_bound = _kkt(run, x[run.free], grad)
-    names: list[str] = [n for n, a in zip(grad.names, on_constraint, strict=True) if a]
-    names += [f"bound:{run.problem.parameter_names[j]}" for j in run.free[on_bound]]
-    return residual, tuple(names)
-
-
 def _keep(
     run: _Run, x0: np.ndarray, before: float, template: Certificate, feasible: bool
 ) -> PolishResult:
@@ -413,7 +401,13 @@ def _finish(
     at x (the gradient kept back for it released from the allowance first)."""
     gradient = run.gradient_function
     run.allowance += gradient.cost + isinstance(gradient, AutogradGradient)
-    kkt, active = _check(run, x)
+    # the KKT residual and active constraints at x (one more gradient unless cached)
+    kkt, active = None, ()
+    with contextlib.suppress(_OutOfBudget):
+        grad = run.gradient(x[run.free])
+        kkt, on_constraint, on_bound = _kkt(run, x[run.free], grad)
+        names = [n for n, a in zip(grad.names, on_constraint, strict=True) if a]
+        active = (*names, *(f"bound:{run.problem.parameter_names[j]}" for j in run.free[on_bound]))
     feasible = True
     found = run.values.get(x.tobytes())  # x as evaluated by the check
     if found is not None and template.status == "improved":
