@@ -142,20 +142,6 @@ def _probe(address: str) -> None:
 
 
 @contextlib.contextmanager
-def _workers_ignore_interrupts() -> Iterator[None]:
-    """Start worker processes that ignore Ctrl-C (SIGINT, sent to the whole process group), so
-    only this process handles it and closes the cluster in order (the ignore is inherited)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-@contextlib.contextmanager
 def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
     """A client of ``scheduler`` (``local:N`` or an address), closed (with its cluster) at exit;
     :class:`SchedulerUnreachable` if none answers within :data:`CONNECT_TIMEOUT` seconds."""
@@ -164,7 +150,11 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
     spec = parse_scheduler(scheduler)
     with contextlib.ExitStack() as stack:
         if spec.startswith("local:"):
-            with _workers_ignore_interrupts():
+            # worker processes that ignore Ctrl-C (SIGINT, sent to the whole process group), so
+            # only this process handles it and closes the cluster in order (the ignore is inherited)
+            main = threading.current_thread() is threading.main_thread()
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+            try:
                 cluster = LocalCluster(
                     n_workers=int(spec.partition(":")[2]),
                     threads_per_worker=1,
@@ -176,6 +166,9 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
                     # reruns a dead worker's jobs: the cluster's own ERROR logs are noise
                     silence_logs=logging.CRITICAL,
                 )
+            finally:
+                if main:
+                    signal.signal(signal.SIGINT, previous)
             stack.enter_context(cluster)
             client = stack.enter_context(Client(cluster))
         else:
