@@ -249,19 +249,6 @@ def _gradient(prepared: PreparedJob, problem: Any) -> AutogradGradient | None:
     return AutogradGradient(problem) if prepared.env_kwargs.get("backend") == "torch" else None
 
 
-def search_history(parts: list[Part]) -> list[tuple[int, float]]:
-    """The searches' (evaluations, best reward so far) one after another, over the whole run."""
-    history: list[tuple[int, float]] = []
-    offset, best = 0, -math.inf
-    for part in parts:
-        if part.outcome is not None:
-            for evaluations, value in part.outcome.history:
-                best = max(best, value)
-                history.append((offset + evaluations, best))
-        offset += part.evaluations
-    return history
-
-
 def _polish(
     prepared: PreparedJob, part: Part, allowance: int, reserve: int, problem: Callable[[], Problem]
 ) -> Part:
@@ -485,6 +472,14 @@ def run_job(
             # an infeasible initial stroke has no search reward: the re-evaluation's is its own
             chosen = replace(chosen, reward=again.reward)
         search_reward, action = chosen.reward, chosen.action
+        # the searches' (evaluations, best reward so far) one after another, over the whole run
+        history: list[list[int | float]] = []
+        offset, best = 0, -math.inf
+        for part in parts:
+            for e, value in () if part.outcome is None else part.outcome.history:
+                best = max(best, value)
+                history.append([int(offset + e), float(best)])
+            offset += part.evaluations
         if not np.isclose(again.reward, search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
             differs = f"re-evaluated reward {again.reward!r} differs from the search's"
             message = f"{prepared.job.label()}: {differs} {search_reward!r}"
@@ -500,7 +495,7 @@ def run_job(
             "search_reward": search_reward,
             "selection": chosen.selection,
             "normalised_stroke": action.tolist(),
-            "history": [[int(e), float(b)] for e, b in search_history(parts)],
+            "history": history,
             "wall_time": time.perf_counter() - start,
             # a polished initial stroke: the method did not run there, so its name only
             "method_settings": to_jsonable(
