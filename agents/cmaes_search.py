@@ -151,8 +151,7 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
 
     def __init__(self, dim: int, config: CMAESConfig, seed: SeedLike = None) -> None:
         count(dim, "dim")
-        popsize = config.popsize or default_popsize(dim)
-        if config.max_evaluations < popsize:
+        if config.max_evaluations < (popsize := config.popsize or default_popsize(dim)):
             raise ValueError(
                 f"budget of {config.max_evaluations} evaluations is smaller than one CMA-ES "
                 f"population ({popsize} points); allowed: a budget >= {popsize}, or a smaller "

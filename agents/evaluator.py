@@ -97,8 +97,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         actions = as_action_type(actions)
         if actions.ndim != 2 or actions.shape[0] < 1:
             raise ValueError(f"actions must have shape (n, dim) with n >= 1; got {actions.shape}")
-        n = actions.shape[0]
-        if self.evaluations + n > self.budget:
+        if self.evaluations + (n := actions.shape[0]) > self.budget:
             used = f"the budget of {self.budget} ({self.evaluations} used)"
             raise BudgetExceededError(f"{n} more evaluations would exceed {used}")
         start = time.perf_counter()

@@ -253,8 +253,7 @@ def _polish(
     prepared: PreparedJob, part: Part, allowance: int, reserve: int, problem: Callable[[], Problem]
 ) -> Part:
     """The search's part polished on ``allowance`` evaluations, with its certificate."""
-    config = prepared.polish
-    if not config.enabled:
+    if not (config := prepared.polish).enabled:
         return part
     if reserve == 0 or part.selection == SELECTION_METHOD:
         why = "the method evaluates through its own envs"

@@ -78,8 +78,7 @@ class SearchOutcome:
     """The method's configuration as used (JSON-ready), including a ``citation``."""
 
     def __post_init__(self) -> None:
-        action = np.array(self.best_action, dtype=np.float64)
-        if action.ndim != 1:
+        if (action := np.array(self.best_action, dtype=np.float64)).ndim != 1:
             raise ValueError(f"best_action must be 1-D; got shape {action.shape}")
         action.setflags(write=False)
         object.__setattr__(self, "best_action", action)

@@ -185,8 +185,7 @@ class _Run:
 
     def value(self, z: np.ndarray) -> tuple[float, np.ndarray, bool]:
         x = self.full(z)
-        key = x.tobytes()
-        if key not in self.values:
+        if (key := x.tobytes()) not in self.values:
             self._spend(1)
             batch = self.problem.evaluate(x[None, :])
             found = (float(batch.objective[0]), batch.margins[0].copy(), bool(batch.feasible[0]))
@@ -196,8 +195,7 @@ class _Run:
 
     def gradient(self, z: np.ndarray) -> Gradient:
         x = self.full(z)
-        key = x.tobytes()
-        if key not in self.gradients:
+        if (key := x.tobytes()) not in self.gradients:
             self._spend(self.gradient_function.cost)
             grad = self.gradient_function(x)
             self.used -= self.gradient_function.cost - grad.evaluations

@@ -75,8 +75,7 @@ class CacheWriter:
         return None if self.store is None or not cacheable(job) else self.store.load(job)
 
     def save(self, record: Record, *, unless_present: bool = False) -> None:
-        store = self.store
-        if store is None or not cacheable(record.job):
+        if (store := self.store) is None or not cacheable(record.job):
             return
         if unless_present and store.path(record.key).exists():
             return

@@ -271,8 +271,7 @@ class Record:
             raise RecordError(
                 f"not a harness record (schema {short_repr(schema)}, want {SCHEMA!r})"
             )
-        expected = {"schema", "key", "checksum", "job", "results"}
-        if set(data) != expected:
+        if set(data) != (expected := {"schema", "key", "checksum", "job", "results"}):
             raise RecordError(f"record fields {sorted(data)}; allowed: exactly {sorted(expected)}")
         try:
             job = Job.from_dict(data["job"])
