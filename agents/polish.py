@@ -434,12 +434,10 @@ def describe(certificate: Mapping[str, Any] | Certificate) -> str:
     parts = [f"polish {c['method']} {c['status']}"]
     if c.get("gain") is not None:
         parts[0] += f" {100 * c['gain']:+.2f} %"
-    parts.append(f"{c.get('iterations', 0)} it")
     if ", then " in c.get("gradient", ""):  # a climb by differences finished by autograd
         parts[0] += f" (finished by {c['gradient'].partition(', then ')[2]})"
-    parts.append(f"{c.get('evaluations', 0)} ev")
-    parts.append("converged" if c.get("converged") else "not converged")
-    kkt = c.get("kkt_residual")
+    converged, kkt = "converged" if c.get("converged") else "not converged", c.get("kkt_residual")
+    parts += [f"{c.get('iterations', 0)} it", f"{c.get('evaluations', 0)} ev", converged]
     parts.append("KKT n/a" if kkt is None else f"KKT {kkt:.1e}")
     active = list(c.get("active_constraints") or ())
     bounds = sum(name.startswith("bound:") for name in active)
