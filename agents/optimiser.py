@@ -181,8 +181,7 @@ class AskTellOptimiser(Tally, ABC):
                 f"tell() must receive the batch returned by the last ask() unchanged "
                 f"(shape {self._pending.shape}), got shape {X.shape} or modified values"
             )
-        f = np.asarray(fitness, dtype=float)
-        if f.shape != (X.shape[0],):
+        if (f := np.asarray(fitness, dtype=float)).shape != (X.shape[0],):
             raise ValueError(f"fitness must have shape ({X.shape[0]},), got {f.shape}")
         f = np.where(np.isnan(f), -np.inf, f)
         self._observe(self._pending, f)

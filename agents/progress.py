@@ -29,10 +29,9 @@ class Phase:
 def _duration(seconds: float) -> str:
     if seconds < 1:
         return "under 1 s"
-    if seconds < 90:
-        return f"{seconds:.0f} s"
-    if seconds < 90 * 60:
-        return f"{seconds / 60:.0f} min"
+    for limit, scale, unit in ((90, 1, "s"), (90 * 60, 60, "min")):
+        if seconds < limit:
+            return f"{seconds / scale:.0f} {unit}"
     return f"{seconds / 3600:.1f} h"
 
 

@@ -323,8 +323,7 @@ def run_jobs(
             for model in revisions
         ]
         for held in (store, shared.store):
-            old = [p for key in earlier if held is not None and (p := held.path(key)).exists()]
-            if old:
+            if old := [p for key in earlier if held is not None and (p := held.path(key)).exists()]:
                 message = (
                     f"{len(old)} record file(s) in {old[0].parent} (e.g. {old[0].name}) were made "
                     "by an earlier model (tandem_env.physics.MODEL_REVISION): not used, their "

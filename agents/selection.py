@@ -91,8 +91,7 @@ class BestStroke:
         far (which it then becomes), else None."""
         flags, values = np.asarray(feasible, dtype=bool), np.asarray(reward, dtype=np.float64)
         i = best_index(flags, values)
-        candidate = rank(flags[i], values[i])
-        if not candidate.beats(self.rank):
+        if not (candidate := rank(flags[i], values[i])).beats(self.rank):
             return None
         self.rank = candidate
         return i
