@@ -250,8 +250,7 @@ class Continuation:
             "until": (lambda x: x >= 0.0, "a percentage >= 0, or None (every round)"),
         }
         for name, (inside, allowed) in numbers.items():
-            value = getattr(self, name)
-            if name == "until" and value is None:
+            if (value := getattr(self, name)) is None and name == "until":
                 continue
             if not is_real(value) or not math.isfinite(value) or not inside(value):
                 raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")

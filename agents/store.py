@@ -198,10 +198,9 @@ class RecordStore:
     def records(self, known: Mapping[str, Record] | None = None) -> list[Record]:
         """Every valid record in the store, in the summary's order (the others left out with a
         :class:`RecordWarning`); those ``known`` (key -> record) are not read again."""
-        known = known or {}
         found = []
         for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
-            if (record := known.get(path.stem)) is not None and record.key == path.stem:
+            if (record := (known or {}).get(path.stem)) is not None and record.key == path.stem:
                 found.append(record)
                 continue
             try:

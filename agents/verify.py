@@ -64,9 +64,8 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
 
 def _decided(results: Mapping[str, Any]) -> dict[str, Any]:
     """The results of :data:`CHECKED`, their metrics without :data:`TABLE_RELATIVE`."""
-    decided = {name: results[name] for name in CHECKED}
-    decided["metrics"] = {k: v for k, v in decided["metrics"].items() if k not in TABLE_RELATIVE}
-    return decided
+    metrics = {k: v for k, v in results["metrics"].items() if k not in TABLE_RELATIVE}
+    return {name: results[name] for name in CHECKED} | {"metrics": metrics}
 
 
 def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> list[dict]:
