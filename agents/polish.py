@@ -2,12 +2,12 @@
 continuous stroke parameters (each wing's harmonic N held fixed), the box [-1, 1] as bounds
 and the task's constraints (the signed margins of ``Constraint.margin``) as constraints.
 
-The driver (:func:`polish`, its :class:`Certificate`, the KKT check); the problem, gradients
-(:mod:`agents.polish_config`) and settings (:mod:`agents.polish_config`) are imported from
-here too. The budget counts model evaluations (a central-difference gradient at most 2k + 1, an
-autograd gradient one; docs/harness.md, "Local polish"), never exceeded. The result is the best
-feasible point found if it beats the start, cast to float32 (:func:`float32_margin` keeps it
-feasible); otherwise the start, the certificate saying why.
+The driver (:func:`polish`, its :class:`Certificate`, the KKT check); the problem, its
+gradients and the settings (:mod:`agents.polish_config`) are imported from here too. The budget
+counts model evaluations (a central-difference gradient at most 2k + 1, an autograd gradient
+one; docs/harness.md, "Local polish"), never exceeded. The result is the best feasible point
+found if it beats the start, cast to float32 (:func:`float32_margin` keeps it feasible);
+otherwise the start, the certificate saying why.
 
 ::
 
