@@ -51,6 +51,8 @@ MAX_SIGMA0 = 2.0
 #: Generations between two stagnation checks: the tests watch slow quantities (a history of
 #: >= 120 generations), and ``should_stop()`` costs about a generation's ``ask``.
 CHECK_EVERY = 10
+#: The default population as a multiple of Hansen's 4 + ⌊3 ln d⌋ (13 at d = 28).
+POPSIZE_MULTIPLE = 4
 
 _SCHEDULES = {
     "none": "no restarts",
@@ -59,14 +61,9 @@ _SCHEDULES = {
 }
 
 
-#: The default population as a multiple of Hansen's 4 + ⌊3 ln d⌋ (13 at d = 28).
-POPSIZE_MULTIPLE = 4
-
-
 def default_popsize(dim: int) -> int:
-    """Four times Hansen's default population, 4 (4 + ⌊3 ln d⌋) (52 at d = 28): with the
-    polish, the best of 8 seeds reproduces on disjoint seed sets (docs/harness.md,
-    "Reproducibility check")."""
+    """Four times Hansen's default population, 4 (4 + ⌊3 ln d⌋) (52 at d = 28): with the polish, the
+    best of 8 seeds reproduces on disjoint seed sets (docs/harness.md, "Reproducibility check")."""
     return POPSIZE_MULTIPLE * (4 + math.floor(3.0 * math.log(dim)))
 
 
@@ -105,11 +102,9 @@ class CMAESConfig(OptimiserConfig):
             pairs = tuple(tuple(pair) for pair in self.discrete)
         except TypeError:
             raise ValueError(f"discrete must be {allowed}, got {self.discrete!r}") from None
-        for pair in pairs:
-            if len(pair) != 2:
-                raise ValueError(f"discrete must be {allowed}, got the entry {pair!r}")
-        index = "discrete index"
-        levels = "discrete levels"
+        if bad := [pair for pair in pairs if len(pair) != 2]:
+            raise ValueError(f"discrete must be {allowed}, got the entry {bad[0]!r}")
+        index, levels = "discrete index", "discrete levels"
         pairs = tuple((count(i, index, low=0), count(k, levels, low=2)) for i, k in pairs)
         if len({i for i, _ in pairs}) != len(pairs):
             raise ValueError(f"discrete must be {allowed}; index repeated in {self.discrete!r}")
@@ -156,8 +151,7 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
 
     def __init__(self, dim: int, config: CMAESConfig, seed: SeedLike = None) -> None:
         count(dim, "dim")
-        popsize = config.popsize or default_popsize(dim)
-        if config.max_evaluations < popsize:
+        if config.max_evaluations < (popsize := config.popsize or default_popsize(dim)):
             raise ValueError(
                 f"budget of {config.max_evaluations} evaluations is smaller than one CMA-ES "
                 f"population ({popsize} points); allowed: a budget >= {popsize}, or a smaller "
@@ -185,14 +179,14 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
             sigma=sigma,
             bounds=self._bounds,
             steps=self._steps,
-            n_max_resampling=self._config.resampling,
+            n_max_resampling=self.config.resampling,
             seed=int(self._rng.integers(2**32)),
             population_size=popsize,
         )
         self._run = RunInfo(regime, popsize, float(sigma), start)  # type: ignore[arg-type]
         self._best: list[float] = []  # best fitness of each generation told
         self._median: list[float] = []  # ... and its median
-        self._patience = self._config.patience or 120 + math.ceil(30 * self.dim / popsize)
+        self._patience = self.config.patience or 120 + math.ceil(30 * self.dim / popsize)
 
     def _batch(self) -> int:
         return self._es.population_size
@@ -214,10 +208,9 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         # cmaes minimises: tell the negated fitness (NaN, mapped to -inf, becomes +inf).
         self._es.tell(list(zip(self._raw, (-fitness).tolist(), strict=True)))
         run.generations = self._es.generation
-        if self._config.restarts != "none" and len(self._best) % CHECK_EVERY == 0:
-            stop = self._stop()
-            if stop is not None:
-                self._restart(stop)
+        check = self.config.restarts != "none" and len(self._best) % CHECK_EVERY == 0
+        if check and (stop := self._stop()) is not None:
+            self._restart(stop)
 
     def _stop(self) -> str | None:
         """Why the current run should end now, or None: the newest 30 % of the window no better
@@ -232,7 +225,7 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         for history in (self._best, self._median):
             window = history[-length:]
             old, new = float(np.median(window[:part])), float(np.median(window[-part:]))
-            if new > (old + self._config.tolerance * abs(old) if math.isfinite(old) else old):
+            if new > (old + self.config.tolerance * abs(old) if math.isfinite(old) else old):
                 return None
         return "stagnation"
 
@@ -242,15 +235,15 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         self._runs.append(finished)
         self._used["large" if finished.regime == "large" else "small"] += finished.evaluations
         end = finished.start + finished.evaluations
-        if self._config.restarts == "bipop" and self._used["small"] < self._used["large"]:
+        if self.config.restarts == "bipop" and self._used["small"] < self._used["large"]:
             u, v = self._rng.random(2)
             multiplier = POPSIZE_FACTOR**self._large_restarts
             popsize = max(MIN_POPSIZE, math.floor(self._popsize0 * multiplier ** (u**2)))
-            self._start_run("small", popsize, self._config.sigma0 * 10.0 ** (-2.0 * v), end)
+            self._start_run("small", popsize, self.config.sigma0 * 10.0 ** (-2.0 * v), end)
         else:
             self._large_restarts += 1
             popsize = self._popsize0 * POPSIZE_FACTOR**self._large_restarts
-            self._start_run("large", popsize, self._config.sigma0, end)
+            self._start_run("large", popsize, self.config.sigma0, end)
 
     @property
     def runs(self) -> list[RunInfo]:

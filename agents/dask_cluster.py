@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import os
 import re
 import signal
 import socket
@@ -68,8 +67,7 @@ def parse_scheduler(text: str) -> str:
     scheme, _, rest = text.rpartition("://")
     if scheme and scheme != SCHEME:
         raise refused(f": the scheme {scheme + '://'!r} is not supported")
-    match = re.fullmatch(r"(\[[0-9a-fA-F:]+\]|[^\s/:\[\]]+):(\d{1,6})", rest)
-    if match is None:
+    if (match := re.fullmatch(r"(\[[0-9a-fA-F:]+\]|[^\s/:\[\]]+):(\d{1,6})", rest)) is None:
         raise refused()
     host, port = match.groups()
     if not host.startswith("[") and not _HOST.fullmatch(host):
@@ -99,16 +97,6 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
             f"workers = {workers} and scheduler = {scheduler!r}; give one (workers N is local:N)"
         )
     return f"local:{int(workers)}"
-
-
-def set_worker_numba_threads() -> None:
-    """On a Dask worker, before its job: one numba thread for the calling thread's job (a
-    worker runs a job per thread, so cores are not oversubscribed), unless the worker was
-    started with ``NUMBA_NUM_THREADS`` set."""
-    if "NUMBA_NUM_THREADS" not in os.environ:
-        import numba
-
-        numba.set_num_threads(1)
 
 
 def _probe(address: str) -> None:
@@ -154,20 +142,6 @@ def _probe(address: str) -> None:
 
 
 @contextlib.contextmanager
-def _workers_ignore_interrupts() -> Iterator[None]:
-    """Start worker processes that ignore Ctrl-C (SIGINT, sent to the whole process group), so
-    only this process handles it and closes the cluster in order (the ignore is inherited)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-@contextlib.contextmanager
 def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
     """A client of ``scheduler`` (``local:N`` or an address), closed (with its cluster) at exit;
     :class:`SchedulerUnreachable` if none answers within :data:`CONNECT_TIMEOUT` seconds."""
@@ -176,18 +150,25 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
     spec = parse_scheduler(scheduler)
     with contextlib.ExitStack() as stack:
         if spec.startswith("local:"):
-            with _workers_ignore_interrupts():
+            # worker processes that ignore Ctrl-C (SIGINT, sent to the whole process group), so
+            # only this process handles it and closes the cluster in order (the ignore is inherited)
+            main = threading.current_thread() is threading.main_thread()
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+            try:
                 cluster = LocalCluster(
                     n_workers=int(spec.partition(":")[2]),
                     threads_per_worker=1,
                     processes=True,
                     host="127.0.0.1",
                     dashboard_address="127.0.0.1:0",  # a free port (the dashboard needs bokeh)
-                    env={"NUMBA_NUM_THREADS": "1"},  # a job per core: set_worker_numba_threads
+                    env={"NUMBA_NUM_THREADS": "1"},  # a job per core: agents.runner._on_worker
                     # the runner reports every failed job itself (key and traceback) and Dask
                     # reruns a dead worker's jobs: the cluster's own ERROR logs are noise
                     silence_logs=logging.CRITICAL,
                 )
+            finally:
+                if main:
+                    signal.signal(signal.SIGINT, previous)
             stack.enter_context(cluster)
             client = stack.enter_context(Client(cluster))
         else:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,8 +21,8 @@ from agents.selection import BestStroke
 from agents.tasks import Condition, TaskSpec
 from tandem_env.envs.base import as_action_type
 from tandem_env.io.files import to_jsonable
+from tandem_env.io.progress_bar import Reporter
 
-BatchCallback = Callable[[int, int, float], None]
 #: How the harness makes a task's vector env: its native one (one model call per step), each
 #: sub-env reset by the harness (with the condition) rather than on its own.
 NATIVE_VECTOR_ENV = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}
@@ -45,11 +45,10 @@ class EvaluatedBatch:
 
 
 class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
-    """Budgeted, batched fitness through the task's native vector env, made with
-    ``env_kwargs`` and reset with ``condition`` (``seed`` seeds the first reset). Calling it
-    with actions (n, dim) returns their rewards (n,) and counts them: more than ``budget``
-    raises :class:`BudgetExceededError`; ``on_batch(iteration, evaluations, best)`` follows
-    every batch."""
+    """Budgeted, batched fitness through the task's native vector env, made with ``env_kwargs`` and
+    reset with ``condition`` (``seed`` seeds the first reset). Calling it with actions (n, dim)
+    returns their rewards (n,) and counts them: more than ``budget`` raises
+    :class:`BudgetExceededError`; ``on_batch(iteration, evaluations, best)`` follows every batch."""
 
     def __init__(
         self,
@@ -58,7 +57,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         env_kwargs: Mapping[str, Any],
         seed: int,
         budget: int,
-        on_batch: BatchCallback | None = None,
+        on_batch: Reporter | None = None,
     ) -> None:
         super().__init__()
         self.task = task
@@ -75,8 +74,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         """Wall time spent in the vector envs' reset and step [s] (for overhead accounting)."""
 
     def _env(self, n: int) -> gym.vector.VectorEnv:
-        env = self._envs.get(n)
-        if env is None:
+        if (env := self._envs.get(n)) is None:
             env = gym.make_vec(self.task.env_id, num_envs=n, **NATIVE_VECTOR_ENV, **self.env_kwargs)
             # the seed only matters for sampled conditions (none here), but a seeded first
             # reset keeps every generator the env owns reproducible
@@ -99,8 +97,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         actions = as_action_type(actions)
         if actions.ndim != 2 or actions.shape[0] < 1:
             raise ValueError(f"actions must have shape (n, dim) with n >= 1; got {actions.shape}")
-        n = actions.shape[0]
-        if self.evaluations + n > self.budget:
+        if self.evaluations + (n := actions.shape[0]) > self.budget:
             used = f"the budget of {self.budget} ({self.evaluations} used)"
             raise BudgetExceededError(f"{n} more evaluations would exceed {used}")
         start = time.perf_counter()

@@ -73,17 +73,6 @@ class FrozenMapping(Mapping[str, Any]):
         return repr(self._items)
 
 
-def _canonical_env_kwargs(value: Any) -> Any:
-    """The job's env keywords with ``insect`` in its canonical form
-    (:func:`~tandem_env.envs.config.insect_keyword`; left out for the specimen itself)."""
-    items = dict(value.items() if isinstance(value, Mapping) else value)
-    if "insect" in items:
-        insect = insect_keyword(items.pop("insect"))
-        if insect is not None:
-            items["insect"] = insect
-    return items
-
-
 def method_identity(spec: str, config: Mapping[str, Any]) -> str:
     """The identity of the files the method ``spec`` (with settings ``config``) reads: its
     ``identity()``, asked only of a method that takes a path (``name:ARGUMENT``); empty for
@@ -124,9 +113,8 @@ class Job:
     """The study preset the job belongs to (part of the key, so presets never share records);
     empty outside the studies (``python -m eval optimize``)."""
     method_identity: str | None = None
-    """What the files the method reads hold, so a newer trained run is another job under
-    another key (:func:`method_identity` when not given); empty ones are left out of the job's
-    dict and key."""
+    """What the files the method reads hold, so a newer trained run is another job under another key
+    (:func:`method_identity` when not given); empty ones are left out of the job's dict and key."""
 
     def __post_init__(self) -> None:
         # the one structural check of a job, where it is made (the CLI, a study, a record
@@ -141,7 +129,12 @@ class Job:
         object.__setattr__(self, "condition", float(self.condition))
         object.__setattr__(self, "budget", budget)
         object.__setattr__(self, "seed", count(self.seed, "seed", low=0))
-        object.__setattr__(self, "env_kwargs", _pairs(_canonical_env_kwargs(self.env_kwargs)))
+        # ``insect`` in its canonical form (:func:`~tandem_env.envs.config.insect_keyword`),
+        # left out for the specimen itself
+        kwargs = dict(self.env_kwargs)
+        if "insect" in kwargs and (insect := insect_keyword(kwargs.pop("insect"))) is not None:
+            kwargs["insect"] = insect
+        object.__setattr__(self, "env_kwargs", _pairs(kwargs))
         object.__setattr__(self, "method_config", _pairs(self.method_config))
         if self.method_identity is None:
             identity = method_identity(self.method, dict(self.method_config))
@@ -163,11 +156,9 @@ class Job:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON form (keyword pairs become objects): what a record stores as ``job``."""
-        data = {f.name: getattr(self, f.name) for f in fields(self)}
-        data["env_kwargs"] = dict(self.env_kwargs)
-        data["method_config"] = dict(self.method_config)
-        if not self.method_identity:
-            del data["method_identity"]
+        skip = () if self.method_identity else ("method_identity",)
+        data = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in skip}
+        data |= {"env_kwargs": dict(self.env_kwargs), "method_config": dict(self.method_config)}
         return to_jsonable(data)
 
     def configuration(self) -> dict[str, Any]:
@@ -259,8 +250,7 @@ class Continuation:
             "until": (lambda x: x >= 0.0, "a percentage >= 0, or None (every round)"),
         }
         for name, (inside, allowed) in numbers.items():
-            value = getattr(self, name)
-            if name == "until" and value is None:
+            if (value := getattr(self, name)) is None and name == "until":
                 continue
             if not is_real(value) or not math.isfinite(value) or not inside(value):
                 raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")
@@ -275,13 +265,9 @@ class Continuation:
         """``job`` continued in round ``index`` (its seed plus ``index``) from the normalised
         ``strokes``; None gives the stand-in of a job whose optima are not known yet (the
         budget right, the key not final: the cost line's)."""
-        config = dict(job.method_config)
-        if strokes is None:
-            strokes = [(0.0,) * N_PARAMETERS]
-        config.update(
-            initial=[list(map(float, stroke)) for stroke in strokes],
-            initial_share=self.initial_share,
-        )
+        strokes = [(0.0,) * N_PARAMETERS] if strokes is None else strokes
+        initial = [list(map(float, stroke)) for stroke in strokes]
+        config = dict(job.method_config) | {"initial": initial, "initial_share": self.initial_share}
         if self.starts is not None:
             config["starts"] = self.starts
         budget = max(1, round(self.share * job.budget))

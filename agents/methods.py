@@ -1,11 +1,10 @@
 """Search methods the harness can run, and the registry that names them.
 
 A method has a ``name`` and ``search(context) -> SearchOutcome``: an optimiser calls
-``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context.
-A method's module registers it when imported (:func:`register_optimiser`,
-:func:`register_method`), found by its name in a ``tandem_env.optimisers`` entry point
-(this project's in its pyproject.toml, ``train``'s included; a plug-in's in its own;
-docs/harness.md, "Methods: protocol and registry").
+``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context. A
+method's module registers it when imported (:func:`register_optimiser`, :func:`register_method`),
+found by its name in a ``tandem_env.optimisers`` entry point (this project's in its pyproject.toml,
+``train``'s included; a plug-in's in its own; docs/harness.md, "Methods: protocol and registry").
 """
 
 from __future__ import annotations
@@ -79,13 +78,11 @@ class SearchOutcome:
     """The method's configuration as used (JSON-ready), including a ``citation``."""
 
     def __post_init__(self) -> None:
-        action = np.array(self.best_action, dtype=np.float64)
-        if action.ndim != 1:
+        if (action := np.array(self.best_action, dtype=np.float64)).ndim != 1:
             raise ValueError(f"best_action must be 1-D; got shape {action.shape}")
         action.setflags(write=False)
         object.__setattr__(self, "best_action", action)
-        history = tuple((int(e), float(b)) for e, b in self.history)
-        object.__setattr__(self, "history", history)
+        object.__setattr__(self, "history", tuple((int(e), float(b)) for e, b in self.history))
 
 
 @runtime_checkable
@@ -136,13 +133,8 @@ class AskTellMethod:
             optimiser.tell(X, context.evaluate(X))
         if (best := optimiser.best_position) is None:
             raise RuntimeError(f"{self.name}: every evaluation returned NaN or -inf")
-        return SearchOutcome(
-            best_action=best,
-            best_reward=optimiser.best_fitness,
-            evaluations=optimiser.evaluations,
-            history=tuple(optimiser.history),
-            config=optimiser.record(),
-        )
+        found = (best, optimiser.best_fitness, optimiser.evaluations, tuple(optimiser.history))
+        return SearchOutcome(*found, config=optimiser.record())
 
 
 #: The setting a study's preset swarm size goes to, per ask/tell method (None: the method
@@ -196,8 +188,7 @@ def register_optimiser(
 
 def preset_batch_setting(method: str) -> str | None:
     """The setting of ``method`` (a spec) that a study's preset swarm size sets, or None."""
-    name = method.partition(":")[0]
-    if name not in _REGISTRY and name in providers():
+    if (name := method.partition(":")[0]) not in _REGISTRY and name in providers():
         with contextlib.suppress(NotImplementedError):  # a provider that is not there: none
             _factory(name)  # registers it (and its batch setting)
     return _PRESET_BATCH.get(name)
@@ -237,8 +228,7 @@ def available_methods() -> tuple[str, ...]:
 def _factory(name: str) -> MethodFactory:
     if name in _REGISTRY:
         return _REGISTRY[name]
-    known = providers()
-    if name not in known:
+    if name not in (known := providers()):
         installed = "" if known else " (no entry points installed: pip install -e . here)"
         raise ValueError(
             f"unknown method {name!r}; allowed: {', '.join(available_methods())} "

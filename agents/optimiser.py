@@ -38,13 +38,14 @@ def real_setting(low: float, high: float, *, low_inclusive: bool, default: Any =
     return field(default=default, metadata={"check": check})
 
 
-def check_settings(config: Any) -> None:
+def check_settings(config: Any, prefix: str = "") -> None:
     """Check every field of ``config`` declared by :func:`integer_setting` or
-    :func:`real_setting` (ValueError naming it), stored as a plain int / float."""
+    :func:`real_setting` (ValueError naming it, after ``prefix``), stored as a plain int / float."""
     for spec in fields(config):
         value = getattr(config, spec.name)
         if "check" in spec.metadata and not (value is None and spec.default is None):
-            object.__setattr__(config, spec.name, spec.metadata["check"](value, spec.name))
+            checked = spec.metadata["check"](value, prefix + spec.name)
+            object.__setattr__(config, spec.name, checked)
 
 
 class Tally:
@@ -135,9 +136,11 @@ class AskTellOptimiser(Tally, ABC):
 
     def __init__(self, dim: int, batch_size: int, config: OptimiserConfig, seed: SeedLike) -> None:
         super().__init__()
-        self._dim = count(dim, "dim")
+        self.dim = count(dim, "dim")
+        """Dimension of the search box."""
+        self.config = config
+        """The configuration this optimiser was built from."""
         self._full_batch = int(batch_size)
-        self._config = config
         self._rng = np.random.default_rng(seed)
         self._pending: FloatArray | None = None
 
@@ -155,14 +158,13 @@ class AskTellOptimiser(Tally, ABC):
 
     def _next_size(self) -> int:
         """Points in the next round: a full one, or what is left of the budget (0 at the end)."""
-        return max(0, min(self._batch(), self._config.max_evaluations - self.evaluations))
+        return max(0, min(self._batch(), self.config.max_evaluations - self.evaluations))
 
     def ask(self) -> FloatArray:
         """Next batch of points (n, dim) in [-1, 1]^dim, the last truncated to the budget."""
         if self._pending is not None:
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
-        n = self._next_size()
-        if n == 0:
+        if (n := self._next_size()) == 0:
             done = f"budget exhausted after {self.evaluations} evaluations; check `done` first"
             raise RuntimeError(done)
         self._pending = self._propose(n)
@@ -179,23 +181,12 @@ class AskTellOptimiser(Tally, ABC):
                 f"tell() must receive the batch returned by the last ask() unchanged "
                 f"(shape {self._pending.shape}), got shape {X.shape} or modified values"
             )
-        f = np.asarray(fitness, dtype=float)
-        if f.shape != (X.shape[0],):
+        if (f := np.asarray(fitness, dtype=float)).shape != (X.shape[0],):
             raise ValueError(f"fitness must have shape ({X.shape[0]},), got {f.shape}")
         f = np.where(np.isnan(f), -np.inf, f)
         self._observe(self._pending, f)
         self.add(self._pending, f)
         self._pending = None
-
-    @property
-    def dim(self) -> int:
-        """Dimension of the search box."""
-        return self._dim
-
-    @property
-    def config(self) -> OptimiserConfig:
-        """The configuration this optimiser was built from."""
-        return self._config
 
     best_position = Tally.best_point
     best_fitness = Tally.best_value
@@ -207,4 +198,4 @@ class AskTellOptimiser(Tally, ABC):
 
     def record(self) -> dict[str, Any]:
         """JSON-ready record of the run's configuration (CMA-ES adds its restarts)."""
-        return self._config.to_dict()
+        return self.config.to_dict()

@@ -2,12 +2,12 @@
 continuous stroke parameters (each wing's harmonic N held fixed), the box [-1, 1] as bounds
 and the task's constraints (the signed margins of ``Constraint.margin``) as constraints.
 
-This module is the driver (:func:`polish`, its :class:`Certificate`, the KKT check); the
-problem, gradients (:mod:`agents.polish_gradients`) and settings (:mod:`agents.polish_config`)
-are imported from here too. The budget counts model evaluations (a central-difference gradient
-at most 2k + 1, an autograd gradient one; docs/harness.md, "Local polish") and is never
-exceeded. The result is the best feasible point found if it beats the start, cast to float32
-(:func:`float32_margin` keeps it feasible); otherwise the start, the certificate saying why.
+The driver (:func:`polish`, its :class:`Certificate`, the KKT check); the problem, its
+gradients and the settings (:mod:`agents.polish_config`) are imported from here too. The budget
+counts model evaluations (a central-difference gradient at most 2k + 1, an autograd gradient
+one; docs/harness.md, "Local polish"), never exceeded. The result is the best feasible point
+found if it beats the start, cast to float32 (:func:`float32_margin` keeps it feasible);
+otherwise the start, the certificate saying why.
 
 ::
 
@@ -22,23 +22,27 @@ import contextlib
 import math
 import warnings
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from scipy.optimize import BFGS, Bounds, NonlinearConstraint, OptimizeResult, minimize, nnls
 
-# The public names of the settings and gradient modules (their __all__) are this module's too.
-from agents.polish_config import *  # noqa: F403
-from agents.polish_config import PolishConfig
-from agents.polish_gradients import *  # noqa: F403
-from agents.polish_gradients import (
+# The polish's settings and problem: its users import them from here (re-exported).
+from agents.polish_config import (  # noqa: F401
+    MAX_STARTS,
+    POLISH_DEFAULTS,
+    POLISH_METHODS,
     AutogradGradient,
+    BatchEvaluation,
     CentralDifferences,
     Gradient,
     GradientFunction,
+    PolishConfig,
     Problem,
     finishable,
+    split_settings,
+    task_problem,
 )
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
 from tandem_env.physics.checks import is_integer
@@ -53,19 +57,16 @@ def kkt_residual(
 ) -> tuple[float, np.ndarray, np.ndarray]:
     """First-order optimality of a maximum of f subject to c >= 0 and -1 <= x <= 1.
 
-    ∇f + Σ λ_i ∇c_i = 0, λ_i >= 0 over the active constraints (c_i <= ``active``) and bounds,
-    solved by non-negative least squares. Returns (residual ||∇f + Σ λ_i ∇c_i|| / ||∇f|| [-],
-    active constraint mask, active bound mask): the residual is near 0 at a KKT point, of order 1
-    where f can still rise feasibly, 0 where ∇f = 0, inf at an infeasible point (some
-    c_i < -active).
+    ∇f + Σ λ_i ∇c_i = 0, λ_i >= 0 over the active constraints (c_i <= ``active``) and bounds, solved
+    by non-negative least squares. Returns (residual ||∇f + Σ λ_i ∇c_i|| / ||∇f|| [-], active
+    constraint mask, active bound mask): the residual is near 0 at a KKT point, of order 1 where f
+    can still rise feasibly, 0 where ∇f = 0, inf at an infeasible point (some c_i < -active).
     """
     g = np.asarray(objective_gradient, dtype=np.float64)
     norm = float(np.linalg.norm(g))
-    if np.any(margins < -active):
-        return math.inf, margins <= active, np.zeros(g.size, dtype=bool)
-    if norm == 0.0:
-        return 0.0, margins <= active, np.zeros(g.size, dtype=bool)
-    on_constraint = margins <= active
+    on_constraint, infeasible = margins <= active, bool(np.any(margins < -active))
+    if infeasible or norm == 0.0:
+        return (math.inf if infeasible else 0.0), on_constraint, np.zeros(g.size, dtype=bool)
     upper = x_free >= 1.0 - active
     lower = x_free <= -1.0 + active
     eye = np.eye(g.size)
@@ -140,41 +141,32 @@ class _OutOfBudget(Exception):
 
 
 class _Optimal(Exception):
-    """Raised at an iterate that passes the KKT test (``point``: its full stroke)."""
-
-    def __init__(self, point: np.ndarray, objective: float) -> None:
-        super().__init__()
-        self.point = point
-        self.objective = objective
+    """Raised at an iterate that passes the KKT test, with its objective and full stroke."""
 
 
+@dataclass(eq=False)
 class _Run:
     """The bookkeeping of one polish: budget, cache by point, best feasible point seen."""
 
-    def __init__(
-        self,
-        problem: Problem,
-        start: np.ndarray,
-        allowance: int,
-        gradient: GradientFunction,
-        config: PolishConfig,
-    ) -> None:
-        self.problem = problem
-        self.config = config
-        self.start = start
-        self.free = np.asarray(problem.free)
-        self.allowance = allowance
-        self.gradient_function = gradient
-        self.used = 0
-        self.values: dict[bytes, tuple[float, np.ndarray, bool]] = {}
-        self.gradients: dict[bytes, Gradient] = {}
-        self.best: tuple[float, np.ndarray] | None = None
-        self.margin: np.ndarray | float = 0.0
-        """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
-        self.active: float = config.active
-        """How near its held margin a constraint counts as active [-]: ``config.active`` plus
-        the largest float32 step of :func:`float32_margin` (the reported stroke is cast to
-        float32, which moves each margin by up to half its step)."""
+    problem: Problem
+    start: np.ndarray
+    allowance: int
+    gradient_function: GradientFunction
+    config: PolishConfig
+    used: int = 0
+    values: dict[bytes, tuple[float, np.ndarray, bool]] = field(default_factory=dict)
+    gradients: dict[bytes, Gradient] = field(default_factory=dict)
+    best: tuple[float, np.ndarray] | None = None
+    margin: np.ndarray | float = 0.0
+    """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
+    active: float = 0.0
+    """How near its held margin a constraint counts as active [-]: ``config.active`` plus
+    the largest float32 step of :func:`float32_margin` (the reported stroke is cast to
+    float32, which moves each margin by up to half its step)."""
+
+    def __post_init__(self) -> None:
+        self.free = np.asarray(self.problem.free)
+        self.active = self.config.active
 
     def full(self, z: np.ndarray) -> np.ndarray:
         x = self.start.copy()
@@ -193,8 +185,7 @@ class _Run:
 
     def value(self, z: np.ndarray) -> tuple[float, np.ndarray, bool]:
         x = self.full(z)
-        key = x.tobytes()
-        if key not in self.values:
+        if (key := x.tobytes()) not in self.values:
             self._spend(1)
             batch = self.problem.evaluate(x[None, :])
             found = (float(batch.objective[0]), batch.margins[0].copy(), bool(batch.feasible[0]))
@@ -204,8 +195,7 @@ class _Run:
 
     def gradient(self, z: np.ndarray) -> Gradient:
         x = self.full(z)
-        key = x.tobytes()
-        if key not in self.gradients:
+        if (key := x.tobytes()) not in self.gradients:
             self._spend(self.gradient_function.cost)
             grad = self.gradient_function(x)
             self.used -= self.gradient_function.cost - grad.evaluations
@@ -236,19 +226,17 @@ def polish(
 ) -> PolishResult:
     """Polish ``start`` (dim,) on ``problem`` with at most ``budget`` model evaluations.
 
-    An infeasible start is kept (``"failed: the start is infeasible"``) unless
-    ``infeasible_start``: then the optimiser starts there all the same (SLSQP moves onto the
-    constraints) and any feasible point found is a gain (certificate ``gain`` None).
-    ``keep_certified``: an iterate that passed the KKT stop is reported even up to 1e-6
-    relative below the start (a polished stroke its check could not certify). ``gradient``
-    defaults to :class:`CentralDifferences` with ``config.step``; one gradient's ``cost`` is
-    counted per call and kept back for the certificate's check at the reported stroke, so the
-    total never exceeds ``budget``. Without a feasible stroke
-    better than the start, the start is returned (``"no gain"`` or ``"failed: ..."``).
-    """
-    if not config.enabled:
-        return PolishResult(np.asarray(start, dtype=np.float64), math.nan, Certificate.off())
+    An infeasible start is kept (``"failed: the start is infeasible"``) unless ``infeasible_start``:
+    then the optimiser starts there all the same (SLSQP moves onto the constraints) and any feasible
+    point found is a gain (certificate ``gain`` None). ``keep_certified``: an iterate that passed
+    the KKT stop is reported even up to 1e-6 relative below the start (a polished stroke its check
+    could not certify). ``gradient`` defaults to :class:`CentralDifferences` with ``config.step``;
+    one gradient's ``cost`` is counted per call and kept back for the certificate's check at the
+    reported stroke, so the total never exceeds ``budget``. Without a feasible stroke better than
+    the start, the start is returned (``"no gain"`` or ``"failed: ..."``)."""
     x0 = np.asarray(start, dtype=np.float64)
+    if not config.enabled:
+        return PolishResult(x0, math.nan, Certificate.off())
     if x0.shape != (problem.dim,) or not np.all(np.abs(x0) <= 1.0):
         raise ValueError(f"start has shape {x0.shape} or leaves [-1, 1]; allowed: ({problem.dim},)")
     if not is_integer(budget) or budget < 0:
@@ -266,7 +254,7 @@ def polish(
     # with the problem's own value there, below)
     check = grad_fn.cost + isinstance(grad_fn, AutogradGradient)
     run = _Run(problem, x0, int(budget) - check, grad_fn, config)
-    if finishable(problem, grad_fn.name, config):  # kept for agents.parts.finish
+    if finishable(problem, grad_fn.name, config):  # kept for agents.harness.finish
         run.allowance -= round(config.finish * run.allowance)
     z0 = x0[run.free]
     first = run.gradient(z0)
@@ -279,15 +267,11 @@ def polish(
         failed = replace(template, status="failed: the start is infeasible")
         return _keep(run, x0, before, failed, False)
 
-    climb = _climb(run, z0, margin)
-    failure, iterations = climb.failure, climb.iterations
-    converged = True if climb.optimal else climb.success
-    optimal = f"KKT residual <= {config.optimality:g} at a feasible iterate"
-    message = optimal if climb.optimal else climb.message
-    template = replace(template, iterations=iterations, converged=converged, message=message)
-    # a start already polished (:func:`agents.parts.finish`'s) gives way to the iterate
+    optimal, failure, ended = _climb(run, z0, margin)
+    template = replace(template, **ended)
+    # a start already polished (:func:`agents.harness.finish`'s) gives way to the iterate
     # that passed the KKT stop beside it, within the 1e-6 of the stop's rule, to certify it
-    settled = keep_certified and climb.optimal and run.best is not None
+    settled = keep_certified and optimal and run.best is not None
     settled = settled and not np.array_equal(run.best[1], x0)
     if run.best is None or (first.feasible and run.best[0] <= before and not settled):
         status = "no gain" if not failure.startswith("failed") else failure
@@ -302,34 +286,19 @@ def polish(
     result = _finish(run, x_best, before, after, gain, replace(template, status="improved"))
     if not result.feasible:  # the margin is a first-order bound: say so if it ever falls short
         status = "failed: the optimum is infeasible as a float32 action"
-        certificate = replace(
-            result.certificate,
-            status=status,
-            gain=0.0 if first.feasible else None,
-            objective_after=before,
-        )
+        gain = 0.0 if first.feasible else None
+        certificate = replace(result.certificate, status=status, gain=gain, objective_after=before)
         return PolishResult(x0, before, certificate, feasible=first.feasible)
     return result
 
 
-@dataclass(frozen=True)
-class _Climb:
-    """How one run of the local optimiser ended."""
-
-    optimal: bool
-    """It stopped at an iterate that passed the KKT test (``config.optimality``)."""
-    success: bool | None
-    """The optimiser's own convergence test (scipy ``success``); None where it did not end."""
-    message: str
-    failure: str
-    """``"allowance used up"``, ``"failed: ..."`` or empty."""
-    iterations: int
-
-
-def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
-    """The local optimiser from z0 (free coordinates) on ``run``'s allowance and gradient
-    function, each constraint held ``margin`` inside; the best feasible point seen is
-    ``run.best``."""
+def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> tuple[bool, str, dict[str, Any]]:
+    """The local optimiser from z0 (free coordinates) on ``run``'s allowance and gradient function,
+    each constraint held ``margin`` inside; the best feasible point seen is ``run.best``. How it
+    ended: whether it stopped at an iterate that passed the KKT test (``config.optimality``), its
+    failure (``"allowance used up"``, ``"failed: ..."`` or empty), and the certificate's
+    ``iterations``, ``converged`` (the optimiser's own test, scipy ``success``; None where it did
+    not end) and ``message``."""
     config = run.config
 
     def fun(z: np.ndarray) -> float:
@@ -340,9 +309,8 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
         # passes the KKT test (its own test watches the objective's change, which can stall
         # long before it passes near active constraints, at 53 strokes a step).
         grad = run.gradient(z)
-        stop = config.optimality
-        if stop > 0.0 and grad.feasible and _kkt(run, z, grad)[0] <= stop:
-            raise _Optimal(run.full(z), grad.objective)
+        if config.optimality > 0.0 and grad.feasible and _kkt(run, z, grad)[0] <= config.optimality:
+            raise _Optimal(grad.objective, run.full(z))
         return -grad.objective_gradient
 
     def cons(z: np.ndarray) -> np.ndarray:
@@ -352,14 +320,9 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
         return run.gradient(z).jacobian
 
     bounds = Bounds(-np.ones(z0.size), np.ones(z0.size))
-    counter = [0]
-
-    def count(*_: Any) -> None:  # called once per optimiser iteration
-        counter[0] += 1
-
+    counter: list[None] = []  # an entry per optimiser iteration (its callback)
     outcome: OptimizeResult | None = None
-    failure = ""
-    optimal = False
+    failure, optimal = "", False
     with warnings.catch_warnings():
         # trust-constr warns when it skips a BFGS update (delta_grad == 0) and SLSQP about
         # values outside the bounds it clips; the outcome is in the certificate either way
@@ -374,9 +337,8 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
                 tolerances = {"gtol": config.tolerance, "xtol": config.tolerance}
                 own = {"method": "trust-constr", "hess": BFGS(), "options": tolerances}
             own["options"]["maxiter"] = config.max_iterations
-            outcome = minimize(
-                fun, z0, jac=jac, bounds=bounds, callback=count, constraints=[constraint], **own
-            )
+            own |= {"jac": jac, "bounds": bounds, "constraints": [constraint]}
+            outcome = minimize(fun, z0, callback=lambda *_: counter.append(None), **own)
         except _OutOfBudget:
             failure = "allowance used up"
         except _Optimal as stop:
@@ -385,17 +347,20 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
             # more than 1e-6 (below the digits any table shows; the certificate then checks
             # that point instead)
             best = run.best[0] if run.best is not None else -math.inf
-            if stop.objective >= best - 1e-6 * abs(best):
-                run.best = (stop.objective, stop.point)
+            if stop.args[0] >= best - 1e-6 * abs(best):
+                run.best = stop.args
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             failure = f"failed: {type(error).__name__}: {error}"
-    if outcome is None:
-        return _Climb(optimal, None, failure, failure, counter[0])
-    # the optimiser's last point, for the certificate (it is feasible only if it says so)
-    with contextlib.suppress(_OutOfBudget):
-        run.value(np.asarray(outcome.x))
-    iterations = int(outcome.get("nit", counter[0]))
-    return _Climb(optimal, bool(outcome.success), str(outcome.message), failure, iterations)
+    converged, message, iterations = None, failure, len(counter)
+    if outcome is not None:
+        # the optimiser's last point, for the certificate (it is feasible only if it says so)
+        with contextlib.suppress(_OutOfBudget):
+            run.value(np.asarray(outcome.x))
+        converged, message = bool(outcome.success), str(outcome.message)
+        iterations = int(outcome.get("nit", len(counter)))
+    if optimal:
+        converged, message = True, f"KKT residual <= {config.optimality:g} at a feasible iterate"
+    return optimal, failure, {"iterations": iterations, "converged": converged, "message": message}
 
 
 def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
@@ -414,28 +379,15 @@ def _kkt(run: _Run, z: np.ndarray, grad: Gradient) -> tuple[float, np.ndarray, n
     return kkt_residual(grad.objective_gradient, margins, grad.jacobian, z, run.active)
 
 
-def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
-    """KKT residual and active constraints at x (one more gradient unless cached)."""
-    try:
-        grad = run.gradient(x[run.free])
-    except _OutOfBudget:
-        return None, ()
-    residual, on_constraint, on_bound = _kkt(run, x[run.free], grad)
-    names: list[str] = [n for n, a in zip(grad.names, on_constraint, strict=True) if a]
-    names += [f"bound:{run.problem.parameter_names[j]}" for j in run.free[on_bound]]
-    return residual, tuple(names)
-
-
 def _keep(
     run: _Run, x0: np.ndarray, before: float, template: Certificate, feasible: bool
 ) -> PolishResult:
     """The start stays (no gain, a failure, an infeasible start), checked with the held margins
-    if it lies inside them (a polished stroke, e.g. one :func:`agents.parts.finish`
+    if it lies inside them (a polished stroke, e.g. one :func:`agents.harness.finish`
     starts from), else (a search's stroke) with the plain margin and activity."""
     found = run.values.get(x0.tobytes())
     if found is None or np.any(found[1] - run.margin < -run.active):
-        run.margin = run.config.margin
-        run.active = run.config.active
+        run.margin, run.active = run.config.margin, run.config.active
     gain = 0.0 if feasible else None
     return replace(_finish(run, x0, before, before, gain, template), feasible=feasible)
 
@@ -447,7 +399,13 @@ def _finish(
     at x (the gradient kept back for it released from the allowance first)."""
     gradient = run.gradient_function
     run.allowance += gradient.cost + isinstance(gradient, AutogradGradient)
-    kkt, active = _check(run, x)
+    # the KKT residual and active constraints at x (one more gradient unless cached)
+    kkt, active = None, ()
+    with contextlib.suppress(_OutOfBudget):
+        grad = run.gradient(x[run.free])
+        kkt, on_constraint, on_bound = _kkt(run, x[run.free], grad)
+        names = [n for n, a in zip(grad.names, on_constraint, strict=True) if a]
+        active = (*names, *(f"bound:{run.problem.parameter_names[j]}" for j in run.free[on_bound]))
     feasible = True
     found = run.values.get(x.tobytes())  # x as evaluated by the check
     if found is not None and template.status == "improved":
@@ -476,12 +434,10 @@ def describe(certificate: Mapping[str, Any] | Certificate) -> str:
     parts = [f"polish {c['method']} {c['status']}"]
     if c.get("gain") is not None:
         parts[0] += f" {100 * c['gain']:+.2f} %"
-    parts.append(f"{c.get('iterations', 0)} it")
     if ", then " in c.get("gradient", ""):  # a climb by differences finished by autograd
         parts[0] += f" (finished by {c['gradient'].partition(', then ')[2]})"
-    parts.append(f"{c.get('evaluations', 0)} ev")
-    parts.append("converged" if c.get("converged") else "not converged")
-    kkt = c.get("kkt_residual")
+    converged, kkt = "converged" if c.get("converged") else "not converged", c.get("kkt_residual")
+    parts += [f"{c.get('iterations', 0)} it", f"{c.get('evaluations', 0)} ev", converged]
     parts.append("KKT n/a" if kkt is None else f"KKT {kkt:.1e}")
     active = list(c.get("active_constraints") or ())
     bounds = sum(name.startswith("bound:") for name in active)

@@ -29,10 +29,9 @@ class Phase:
 def _duration(seconds: float) -> str:
     if seconds < 1:
         return "under 1 s"
-    if seconds < 90:
-        return f"{seconds:.0f} s"
-    if seconds < 90 * 60:
-        return f"{seconds / 60:.0f} min"
+    for limit, scale, unit in ((90, 1, "s"), (90 * 60, 60, "min")):
+        if seconds < limit:
+            return f"{seconds / scale:.0f} {unit}"
     return f"{seconds / 3600:.1f} h"
 
 
@@ -121,9 +120,7 @@ class CommandProgress:
     def _say(self, line: str) -> None:
         self.lines.append(line)
         if self.enabled:
-            stream = QuietStream()
-            stream.write(line + "\n")
-            stream.flush()
+            print(line, file=QuietStream(), flush=True)
 
     def announce(self, phases: Sequence[Phase]) -> None:
         """The first line: the whole command (the plan's look-ahead ``phases``) before work."""
@@ -145,8 +142,7 @@ class CommandProgress:
         """The line at the start of the last phase ``started`` (none for the first)."""
         self._plan(phases, started)
         name = started[-1].name
-        place = list(self._phases).index(name) + 1
-        if place == 1:
+        if (place := list(self._phases).index(name) + 1) == 1:
             return
         c = self.counts()
         finished = c["done"] + c["stored"] + c["cached"]

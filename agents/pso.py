@@ -53,8 +53,6 @@ LINEAR_W_START = 0.9
 LINEAR_W_END = 0.4
 LINEAR_C = 2.0
 
-_BOX_WIDTH = ACTION_HIGH - ACTION_LOW
-
 _CITATIONS: dict[str, str] = {
     "constriction": (
         "global-best PSO (Kennedy & Eberhart 1995) with Clerc & Kennedy (2002) constriction "
@@ -144,9 +142,8 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
     def __init__(self, dim: int, config: PSOConfig, seed: SeedLike = None) -> None:
         super().__init__(dim, config.swarm_size, config, seed)
         n, d = config.swarm_size, self.dim
-        self._vmax = config.velocity_clamp * _BOX_WIDTH
+        self._vmax = config.velocity_clamp * (ACTION_HIGH - ACTION_LOW)  # the box's width
         self._c1, self._c2 = config.c1, config.c2
-        self._boundary = config.boundary
         self._schedule = config.inertia_schedule(-(-config.max_evaluations // n))  # iterations
         self._schedule.setflags(write=False)
         self._x = self._rng.uniform(ACTION_LOW, ACTION_HIGH, (n, d))
@@ -154,8 +151,7 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
         self._pbest_x = self._x.copy()
         self._pbest_f = np.full(n, -np.inf)
         self._gbest = 0
-        self._candidate_x = self._x
-        self._candidate_v = self._v
+        self._candidate_x, self._candidate_v = self._x, self._v
 
     @property
     def inertia_schedule(self) -> FloatArray:
@@ -190,7 +186,7 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
         # landing exactly on a wall (e.g. -1 + vmax = 1 with the full-width clamp) is a hit
         # too: a particle there keeps no outward velocity
         hit = (x <= ACTION_LOW) | (x >= ACTION_HIGH)
-        if self._boundary == "clip":
+        if self.config.boundary == "clip":
             v[hit] = 0.0
         else:
             # One mirror suffices: |v| <= box width, so x + v is at most one width outside.

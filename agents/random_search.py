@@ -21,14 +21,10 @@ class RandomSearchConfig(OptimiserConfig):
     """Configuration of :class:`RandomSearch`."""
 
     algorithm = "random-search"
+    citation = "uniform random search over [-1, 1]^d (i.i.d. samples, no adaptation; baseline)"
 
     batch_size: int = integer_setting(1, MAX_BATCH, default=40)
     """Points per ask (>= 1); 40 matches the default PSO swarm so per-iteration costs compare."""
-
-    @property
-    def citation(self) -> str:
-        """What the baseline is."""
-        return "uniform random search over [-1, 1]^d (i.i.d. samples, no adaptation; baseline)"
 
 
 class RandomSearch(AskTellOptimiser, settings=RandomSearchConfig):

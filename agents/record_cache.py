@@ -1,7 +1,7 @@
 """The record cache: one store of records shared by every output folder (docs/harness.md, "The
-record cache"). Its
-folder and files must be the user's own (:func:`record_cache`); what it serves is re-evaluated
-first (:mod:`agents.verify`); a method that takes a path is never cached (:func:`cacheable`).
+record cache"). Its folder and files must be the user's own (:func:`record_cache`); what it
+serves is re-evaluated first (:mod:`agents.verify`); a method that takes a path is never cached
+(:func:`cacheable`).
 """
 
 from __future__ import annotations
@@ -75,8 +75,7 @@ class CacheWriter:
         return None if self.store is None or not cacheable(job) else self.store.load(job)
 
     def save(self, record: Record, *, unless_present: bool = False) -> None:
-        store = self.store
-        if store is None or not cacheable(record.job):
+        if (store := self.store) is None or not cacheable(record.job):
             return
         if unless_present and store.path(record.key).exists():
             return
@@ -84,9 +83,6 @@ class CacheWriter:
             store.save(record)
         except (StoreWriteError, ValueError) as error:
             self.store = None
-            warnings.warn(
-                f"the record cache is not written ({error}); the records are in the output "
-                "folder (--no-cache turns the cache off)",
-                RecordWarning,
-                stacklevel=4,
-            )
+            where = "the records are in the output folder (--no-cache turns the cache off)"
+            message = f"the record cache is not written ({error}); {where}"
+            warnings.warn(message, RecordWarning, stacklevel=4)

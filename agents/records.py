@@ -262,8 +262,7 @@ class Record:
                 f"record data is {type(data).__name__} {short_repr(data)}; allowed: a JSON object "
                 f"with schema {SCHEMA!r}"
             )
-        schema = data.get("schema")
-        if schema in OLD_SCHEMAS:
+        if (schema := data.get("schema")) in OLD_SCHEMAS:
             raise OutdatedRecordError(
                 f"a record of the earlier format {schema!r} (now {SCHEMA!r}); it is not read "
                 "as a result: rerun the command that wrote it to recompute it"
@@ -272,8 +271,7 @@ class Record:
             raise RecordError(
                 f"not a harness record (schema {short_repr(schema)}, want {SCHEMA!r})"
             )
-        expected = {"schema", "key", "checksum", "job", "results"}
-        if set(data) != expected:
+        if set(data) != (expected := {"schema", "key", "checksum", "job", "results"}):
             raise RecordError(f"record fields {sorted(data)}; allowed: exactly {sorted(expected)}")
         try:
             job = Job.from_dict(data["job"])
@@ -314,12 +312,10 @@ class Record:
         row |= {"condition": c.name, "condition_value": c.value, "condition_unit": c.unit}
         row |= {name: getattr(self, name) for name in _SUMMARY_RESULTS}
         row["wall_time_s"] = self.wall_time
-        for name in SUMMARY_METRICS:
-            if name in self.metrics:
-                row[name] = self.metrics[name]
+        row |= {name: self.metrics[name] for name in SUMMARY_METRICS if name in self.metrics}
         # The stroke (Table 4 units) and its parameters at a bound of the insect's (Table 4's
-        # unless it sets its own); a task of
-        # another action (a plug-in, the analytic test tasks) has no such stroke.
+        # unless it sets its own); a task of another action (a plug-in, the analytic test
+        # tasks) has no such stroke.
         insect = self.job.env("insect")
         if set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):
             stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]

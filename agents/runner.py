@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 import tandem_env
-from agents.dask_cluster import dask_client, parse_scheduler, set_worker_numba_threads
+from agents.dask_cluster import dask_client, parse_scheduler
 from agents.harness import PreparedJob, prepare_job, run_job
 from agents.jobs import Job, Work
 from agents.progress import CommandProgress, Phase
@@ -117,13 +117,11 @@ class JobsFailed(RuntimeError):
 
     def __init__(self, summary: RunSummary) -> None:
         self.summary = summary
-        failures = summary.failures
-        lines = [
-            f"{len(failures)} of {summary.ran} {summary.noun}s failed (the others finished and "
-            "their records are stored; rerun the same command to retry the failed ones):"
-        ]
-        lines += [f"--- {f.describe()}" for f in failures]
-        super().__init__("\n".join(lines))
+        head = (
+            f"{len(summary.failures)} of {summary.ran} {summary.noun}s failed (the others finished"
+            " and their records are stored; rerun the same command to retry the failed ones):"
+        )
+        super().__init__("\n--- ".join([head, *(f.describe() for f in summary.failures)]))
 
 
 # The serial executor's live progress: what the job running now reports to.
@@ -138,8 +136,13 @@ def _harness_run(job: PreparedJob | Work) -> Record:
 
 
 def _on_worker(job: PreparedJob | Work) -> Record:
-    """What a Dask worker runs: the harness call, with one numba thread per job."""
-    set_worker_numba_threads()
+    """What a Dask worker runs: the harness call, with one numba thread for the calling
+    thread's job (a worker runs a job per thread, so cores are not oversubscribed), unless the
+    worker was started with ``NUMBA_NUM_THREADS`` set."""
+    if "NUMBA_NUM_THREADS" not in os.environ:
+        import numba
+
+        numba.set_num_threads(1)
     return _harness_run(job)
 
 
@@ -149,12 +152,8 @@ Given = Job | PreparedJob | Work
 
 
 def _failure(job: Job | Work, error: BaseException, tb: Any) -> JobFailure:
-    return JobFailure(
-        key=job.key,
-        label=job.label(),
-        error=f"{type(error).__name__}: {error}",
-        traceback="".join(traceback.format_exception(type(error), error, tb)),
-    )
+    trace = "".join(traceback.format_exception(type(error), error, tb))
+    return JobFailure(job.key, job.label(), f"{type(error).__name__}: {error}", trace)
 
 
 def _run_serially(
@@ -206,29 +205,24 @@ class _Display:
     best: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        total = sum(j.budget for j in self.jobs)
-        n = len(self.jobs)
+        total, n = sum(j.budget for j in self.jobs), len(self.jobs)
         noun = getattr(self.jobs[0], "noun", "optimisation") if self.jobs else ""
         # On Dask the bar moves as jobs finish; serially, reporter() says what it waits for.
-        self.bar = ProgressBar(
-            total, f"{n} {noun}{'s' * (n != 1)}", self.enabled, waiting=DASK_WAITING
-        )
+        label = f"{n} {noun}{'s' * (n != 1)}"
+        self.bar = ProgressBar(total, label, self.enabled, waiting=DASK_WAITING)
 
     def reporter(self, job: Job | Work) -> Reporter:
         """Live progress of a job running in this process."""
         if self.done == 0:
             self.bar.waiting()
-        return lambda iteration, evaluations, best: self.bar.move_to(
-            self.evaluations + min(evaluations, job.budget)
-        )
+        return lambda i, done, b: self.bar.move_to(self.evaluations + min(done, job.budget))
 
     def finished(self, job: Job | Work, outcome: Outcome) -> None:
         self.done += 1
         self.evaluations += job.budget
         if isinstance(job, Job) and isinstance(outcome, Record) and outcome.feasible:
             series = " ".join([job.task, *(str(v) for k, v in job.env_kwargs if k == "objective")])
-            if outcome.objective > self.best.get(series, -math.inf):
-                self.best[series] = outcome.objective
+            self.best[series] = max(self.best.get(series, -math.inf), outcome.objective)
         bests = ", ".join(f"{k} {v:.3g}" for k, v in sorted(self.best.items()))
         best = f"; best feasible: {bests or '-'}" if isinstance(job, Job) else ""
         self.bar.move_to(self.evaluations, f"{self.done}/{len(self.jobs)} jobs{best}")
@@ -245,22 +239,21 @@ def run_jobs(
     command: CommandProgress | None = None,
     summary_csv: bool = False,
 ) -> RunSummary:
-    """Run every job (the harness's or another :class:`~agents.jobs.Work` kind's) that has no
-    valid stored record yet, duplicates once, largest budget first.
+    """Run every job (the harness's or another :class:`~agents.jobs.Work` kind's) that has no valid
+    stored record yet, duplicates once, largest budget first.
 
     ``scheduler``: None runs here, one job after another, else :mod:`agents.dask_cluster`'s.
     ``rerun`` runs every job again, replacing its record. ``cache``
     (:data:`~agents.record_cache.CacheOption`): a job without a record in ``out_dir`` takes the
     cache's; every record computed goes to both. A reused record is re-evaluated first: one its
     stroke does not reproduce (:func:`agents.verify.refuted`) is said in a
-    :class:`~agents.records.RecordWarning` and run again. ``command`` is told of every job
-    finished. ``summary_csv`` rewrites ``out_dir``'s ``summary.csv`` when the call ends (after
-    a failure too), the store's paths checked first (:class:`OutputNotWritable`; a store that
-    cannot be written but holds every job is used as it is). Raises :class:`JobsFailed` after
-    the other jobs finished if any job was rejected or raised,
-    :class:`~agents.dask_cluster.SchedulerUnreachable`, and ValueError for a bad ``scheduler``
-    or an ``out_dir`` (or cache folder) that is a file. The summary's ``records`` are the jobs'
-    records, each read at most once.
+    :class:`~agents.records.RecordWarning` and run again. ``command`` is told of every job finished.
+    ``summary_csv`` rewrites ``out_dir``'s ``summary.csv`` when the call ends (after a failure too),
+    the store's paths checked first (:class:`OutputNotWritable`; a store that cannot be written but
+    holds every job is used as it is). Raises :class:`JobsFailed` after the other jobs finished if
+    any job was rejected or raised, :class:`~agents.dask_cluster.SchedulerUnreachable`, and
+    ValueError for a bad ``scheduler`` or an ``out_dir`` (or cache folder) that is a file. The
+    summary's ``records`` are the jobs' records, each read at most once.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
@@ -315,12 +308,11 @@ def run_jobs(
         # their keys hash the earlier format, so no job finds them: said once (one at a job's
         # own key was reported by store.load)
         if todo and (old := store.outdated(skip=given)):
-            warnings.warn(
+            message = (
                 f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
-                f"{old[0].name}) are not used: the jobs they held run again in this format",
-                RecordWarning,
-                stacklevel=2,
+                f"{old[0].name}) are not used: the jobs they held run again in this format"
             )
+            warnings.warn(message, RecordWarning, stacklevel=2)
         # Records of an earlier model sit under the keys it gave them (Job.key_at; None: before
         # keys held the revision): no job finds them; said once per store.
         revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
@@ -331,8 +323,7 @@ def run_jobs(
             for model in revisions
         ]
         for held in (store, shared.store):
-            old = [p for key in earlier if held is not None and (p := held.path(key)).exists()]
-            if old:
+            if old := [p for key in earlier if held is not None and (p := held.path(key)).exists()]:
                 message = (
                     f"{len(old)} record file(s) in {old[0].parent} (e.g. {old[0].name}) were made "
                     "by an earlier model (tandem_env.physics.MODEL_REVISION): not used, their "
@@ -353,9 +344,8 @@ def run_jobs(
                 if isinstance(outcome, JobFailure):
                     failures.append(outcome)
                 elif outcome.key != job.key:
-                    failures.append(
-                        JobFailure(job.key, job.label(), f"record has key {outcome.key!r}", "")
-                    )
+                    wrong = f"record has key {outcome.key!r}"
+                    failures.append(JobFailure(job.key, job.label(), wrong, ""))
                 else:
                     store.save(outcome)
                     shared.save(outcome)
@@ -366,28 +356,17 @@ def run_jobs(
                     command.ran(job, now - running)
                 running = now
         noun = next((getattr(_job_of(j), "noun", "optimisation") for j in given.values()), "")
-        summary = RunSummary(
-            total=len(given),
-            reused=len(given) - len(missing),
-            ran=len(missing),
-            wall_time=time.perf_counter() - start,
-            executor=executor,
-            failures=tuple(sorted(failures, key=lambda f: f.key)),
-            records=records,
-            cached=len(cached),
-            replaced=replaced,
-            noun=noun,
-        )
+        counts = (len(given), len(given) - len(missing), len(missing))  # total, reused, ran
+        failed = tuple(sorted(failures, key=lambda f: f.key))
+        end = (time.perf_counter() - start, executor, failed, records)
+        summary = RunSummary(*counts, *end, len(cached), replaced, noun)
         if failures:
             raise JobsFailed(summary)
         return summary
     finally:
         if summary_csv and not writable:
-            print(
-                f"{store.directory} cannot be written: every seed is stored there, "
-                f"{SUMMARY_NAME} is left as it is",
-                file=sys.stderr,
-            )
+            kept = f"every seed is stored there, {SUMMARY_NAME} is left as it is"
+            print(f"{store.directory} cannot be written: {kept}", file=sys.stderr)
         elif summary_csv and store.directory.exists():
             store.write_summary(records)
 
@@ -406,8 +385,7 @@ def job_records(out_dir: Out, jobs: Iterable[Job]) -> dict[Job, Record]:
     store = RecordStore.at(out_dir)
     found: dict[Job, Record] = {}
     for job in jobs:
-        record = store.load(job)
-        if record is None:
+        if (record := store.load(job)) is None:
             raise FileNotFoundError(
                 f"no record for {job.label()} (key {job.key}) in "
                 f"{store.directory / RECORDS_DIR}; run the study"
@@ -421,9 +399,7 @@ def find_records(
 ) -> dict[Job, Record] | None:
     """The records of ``jobs`` as :func:`run_jobs` would find them (``out_dir``, then the
     record cache), writing and warning nothing; None if any is missing."""
-    stores = [RecordStore.at(out_dir)]
-    if (shared := record_cache(cache)) is not None:
-        stores.append(shared)
+    stores = [s for s in (RecordStore.at(out_dir), record_cache(cache)) if s is not None]
     found: dict[Job, Record] = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RecordWarning)  # said by run_jobs, when it runs them

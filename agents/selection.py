@@ -61,10 +61,8 @@ def best_index(feasible: ArrayLike, reward: ArrayLike) -> int:
         )
     clean = np.where(np.isnan(values), -np.inf, values)
     usable = flags & (clean > -np.inf)
-    if usable.any():
-        candidates = np.flatnonzero(usable)
-        return int(candidates[np.argmax(clean[candidates])])
-    return int(np.argmax(clean))  # np.argmax returns the first of equal maxima
+    # np.argmax returns the first of equal maxima: the usable ones' if any
+    return int(np.argmax(np.where(usable, clean, -np.inf) if usable.any() else clean))
 
 
 class BestStroke:
@@ -91,11 +89,9 @@ class BestStroke:
     def offer(self, feasible: ArrayLike, reward: ArrayLike) -> int | None:
         """Offer a batch (n,) of strokes; the index of its best one if that beats the best so
         far (which it then becomes), else None."""
-        flags = np.asarray(feasible, dtype=bool)
-        values = np.asarray(reward, dtype=np.float64)
+        flags, values = np.asarray(feasible, dtype=bool), np.asarray(reward, dtype=np.float64)
         i = best_index(flags, values)
-        candidate = rank(flags[i], values[i])
-        if not candidate.beats(self.rank):
+        if not (candidate := rank(flags[i], values[i])).beats(self.rank):
             return None
         self.rank = candidate
         return i

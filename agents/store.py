@@ -13,7 +13,7 @@ import os
 import re
 import stat
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -55,11 +55,10 @@ class StoreWriteError(OSError):
     are kept, and the same command resumes from them once the cause is fixed."""
 
     def __init__(self, path: Path, error: OSError) -> None:
-        reason = error.strerror or str(error)
         super().__init__(
             error.errno,
-            f"cannot write {path} ({reason}); it is left as it was and the records already "
-            "stored are kept: fix that and run the same command again to resume",
+            f"cannot write {path} ({error.strerror or error}); it is left as it was and the "
+            "records already stored are kept: fix that and run the same command again to resume",
         )
         self.path = path
 
@@ -150,10 +149,9 @@ class RecordStore:
         return out if isinstance(out, RecordStore) else cls(out)
 
     def check(self, *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
-        """Check every path the store writes before any work (:func:`output_directory`): the
-        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
-        naming the path and what is allowed, or (without ``write``) False if it cannot be
-        written now."""
+        """Check every path the store writes before any work (:func:`output_directory`): the folder,
+        its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError naming the
+        path and what is allowed, or (without ``write``) False if it cannot be written now."""
         files = (SUMMARY_NAME, *(f"{RECORDS_DIR}/{job.key}.json" for job in jobs))
         return output_directory(
             self._given, "--out", write=write, folders=(RECORDS_DIR,), files=files
@@ -167,30 +165,25 @@ class RecordStore:
         """The stored record of ``job``, or None if it has not run with this configuration; a
         file that is not a valid, trusted record of ``job`` is said in a :class:`RecordWarning`
         and treated as missing, so the job runs again and its record replaces the file."""
-        path = self.path(job.key)
-        if not path.exists():
+        if not (path := self.path(job.key)).exists():
             return None
         try:
             record = read_record(path, strict=self.strict, kind=getattr(job, "record_type", Record))
         except (OutdatedRecordError, UnsafeFileError) as error:
-            _warn(f"{error}; {job.label()} is recomputed")
-            return None
+            return _warn(f"{error}; {job.label()} is recomputed")
         except (OSError, RecordError) as error:
             reason = str(error).removeprefix(f"{path}: ")
-            _warn(f"{path}: corrupt record ({reason}); {job.label()} runs again")
-            return None
+            return _warn(f"{path}: corrupt record ({reason}); {job.label()} runs again")
         if record.key != job.key or record.job.configuration() != job.configuration():
-            _warn(
+            return _warn(
                 f"{path}: holds {record.label()} (job {record.job.to_dict()}), not "
                 f"{job.label()}; it runs again and its record replaces the file"
             )
-            return None
         return record
 
     def save(self, record: Record) -> Path:
         """Write ``record`` as ``records/<record.key>.json`` atomically; returns the path."""
-        path = self.path(record.key)
-        data = record.to_dict()
+        path, data = self.path(record.key), record.to_dict()
         try:
             if self.strict:  # the user's alone (unsafe_path), whatever the umask
                 self.directory.mkdir(mode=0o700, parents=True, exist_ok=True)
@@ -205,10 +198,9 @@ class RecordStore:
     def records(self, known: Mapping[str, Record] | None = None) -> list[Record]:
         """Every valid record in the store, in the summary's order (the others left out with a
         :class:`RecordWarning`); those ``known`` (key -> record) are not read again."""
-        known = known or {}
         found = []
         for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
-            if (record := known.get(path.stem)) is not None and record.key == path.stem:
+            if (record := (known or {}).get(path.stem)) is not None and record.key == path.stem:
                 found.append(record)
                 continue
             try:
@@ -234,29 +226,25 @@ class RecordStore:
         return found
 
     def write_summary(self, known: Mapping[str, Record] | None = None) -> Path:
-        """Rewrite ``DIR/summary.csv`` over every record in the store (each file read at most
-        once, none of ``known``: :meth:`records`); its path."""
+        """Rewrite ``DIR/summary.csv`` atomically (its path returned): a row
+        (:meth:`Record.summary_row`) per record, in :meth:`records`' order (each file read at
+        most once, none of ``known``)."""
         path = self.directory / SUMMARY_NAME
-        records = self.records(known)
+        rows = [record.summary_row() for record in self.records(known)]
         try:
-            write_summary(path, records)
+            write_csv_atomic(path, rows)
         except OSError as error:
             raise StoreWriteError(path, error) from None
         return path
 
 
 def _warn(message: str) -> None:
+    """Say ``message`` in a :class:`RecordWarning` (None: what a record not served is)."""
     warnings.warn(message, RecordWarning, stacklevel=3)
 
 
 def _summary_order(r: Record) -> tuple[Any, ...]:
     return (r.task, r.objective_name, r.condition.value, r.method, r.budget, r.seed, r.key)
-
-
-def write_summary(path: str | os.PathLike[str], records: Sequence[Record]) -> None:
-    """Write the CSV summary of ``records`` atomically: a row each (:meth:`Record.summary_row`),
-    sorted by task, objective, condition, method, budget and seed."""
-    write_csv_atomic(path, [r.summary_row() for r in sorted(records, key=_summary_order)])
 
 
 def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:

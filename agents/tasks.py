@@ -155,8 +155,7 @@ def register_task(spec: TaskSpec, *, replace: bool = False) -> None:
     is registered with ``registration.add_entry`` instead)."""
     if not isinstance(spec, TaskSpec):
         raise ValueError(f"spec = {spec!r}; allowed: a TaskSpec")
-    known = _tasks().get(spec.name)
-    if known is not None and not replace and known != spec:
+    if (known := _tasks().get(spec.name)) is not None and not replace and known != spec:
         raise ValueError(
             f"task {spec.name!r} is already registered; pass replace=True to replace it"
         )

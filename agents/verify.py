@@ -14,11 +14,10 @@ import gymnasium as gym
 import numpy as np
 
 from agents.evaluator import NATIVE_VECTOR_ENV, reevaluate
+from agents.harness import PreparedJob, stepped_results
 from agents.jobs import Job
-from agents.parts import PreparedJob
 from agents.records import Record
 from agents.tasks import TaskSpec, get_task
-from tandem_env.io.files import to_jsonable
 
 #: The results a record's stroke decides, compared with their re-evaluation.
 CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
@@ -34,22 +33,6 @@ RTOL, ATOL = 1e-7, 1e-8
 _BATCH = 1024
 
 
-def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
-    """The record's results that one env step of its stroke decides (:data:`CHECKED`): the
-    harness's record (:func:`agents.harness.run_job`) and this check read a step one way."""
-    info = dict(info)
-    stroke = info.pop("stroke", None)
-    if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...
-        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
-    return {
-        "reward": float(reward),
-        "objective": float(info.get("objective", reward)),
-        "feasible": bool(info.get("feasible", True)),
-        "stroke": to_jsonable(stroke),
-        "metrics": to_jsonable(info),
-    }
-
-
 def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) -> dict[str, str]:
     """Key -> why, for each record of ``found`` whose results its stroke does not give in the
     env of its job in ``jobs``, or that cannot be re-evaluated."""
@@ -62,10 +45,9 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
         batches[-1].append(key)
     why: dict[str, str] = {}
     for keys in (batch for batches in groups.values() for batch in batches):
-        job = jobs[keys[0]]
         records = [found[key] for key in keys]
-        try:
-            spec = job.task if isinstance(job, PreparedJob) else get_task(job.task)
+        try:  # a prepared job's task is its spec
+            spec = get_task(jobs[keys[0]].task)
             steps = _step(spec, dict(plain[keys[0]].env_kwargs), records)
         except (ValueError, TypeError, IndexError, RuntimeError, gym.error.Error) as error:
             if len(keys) == 1:
@@ -82,9 +64,8 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
 
 def _decided(results: Mapping[str, Any]) -> dict[str, Any]:
     """The results of :data:`CHECKED`, their metrics without :data:`TABLE_RELATIVE`."""
-    decided = {name: results[name] for name in CHECKED}
-    decided["metrics"] = {k: v for k, v in decided["metrics"].items() if k not in TABLE_RELATIVE}
-    return decided
+    metrics = {k: v for k, v in results["metrics"].items() if k not in TABLE_RELATIVE}
+    return {name: results[name] for name in CHECKED} | {"metrics": metrics}
 
 
 def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> list[dict]:
@@ -100,16 +81,14 @@ def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> 
             _, rewards, _, _, infos = env.step(actions)
             steps = range(len(records))
             return [stepped_results(rewards[i], _row(infos, i), actions[i]) for i in steps]
-    return [_single(spec, kwargs, r, a) for r, a in zip(records, actions, strict=True)]
-
-
-def _single(spec: TaskSpec, kwargs: dict[str, Any], record: Record, action: np.ndarray) -> dict:
-    """A record's stroke re-evaluated as :func:`agents.harness.run_job` evaluated it."""
-    condition = spec.condition(record.job.condition)
-    made = {**kwargs, condition.name: condition.value}
-    with gym.make(spec.env_id, disable_env_checker=True, **made) as env:
-        again = reevaluate(env, spec, condition, record.job.seed, action)
-    return stepped_results(again.reward, again.info, action)
+    stepped = []  # each stroke re-evaluated as :func:`agents.harness.run_job` evaluated it
+    for record, action in zip(records, actions, strict=True):
+        condition = spec.condition(record.job.condition)
+        made = {**kwargs, condition.name: condition.value}
+        with gym.make(spec.env_id, disable_env_checker=True, **made) as env:
+            again = reevaluate(env, spec, condition, record.job.seed, action)
+        stepped.append(stepped_results(again.reward, again.info, action))
+    return stepped
 
 
 def _row(infos: Mapping[str, Any], i: int) -> dict[str, Any]:

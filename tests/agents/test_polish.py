@@ -15,8 +15,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.harness import prepare, run
-from agents.parts import finish
+from agents.harness import finish, prepare, run
 from agents.polish import (
     UNCERTIFIED,
     BatchEvaluation,

@@ -12,9 +12,7 @@ ROOT = Path(__file__).resolve().parents[2]
 MODULES = [
     "agents/polish.py",
     "agents/polish_config.py",
-    "agents/polish_gradients.py",
     "agents/harness.py",
-    "agents/parts.py",
 ]
 #: The env's internals the polish used to reach for: its batched core.
 INTERNALS = {"core"}

@@ -1,4 +1,4 @@
-"""A run's budget split into parts (agents/parts.py): ``starts`` independent searches, each
+"""A run's budget split into parts (agents/harness.py): ``starts`` independent searches, each
 polished, and ``initial`` strokes polished directly (the readings' continuation).
 
 Checked: one start is the plain run, stroke for stroke; the parts share the budget and never
