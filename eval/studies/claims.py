@@ -325,28 +325,26 @@ def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
     return {**stats, "detail": seeds_feasible(s), **fields}
 
 
-def follows_stats(
-    x: Mapping[float, Spread], y: Mapping[float, Spread], **fields: Any
+def trend_stats(
+    series: Mapping[float, Spread],
+    direction: int,
+    against: Mapping[float, Spread] | None = None,
+    **fields: Any,
 ) -> dict[str, Any]:
-    """ρ between the medians (and the best seeds) of two series at their common conditions."""
-    common = [c for c in x if c in y]
-    r = rho([x[c].median for c in common], [y[c].median for c in common])
-    r_best = rho([x[c].best for c in common], [y[c].best for c in common])
-    return {"median": r, "best": r_best, "unit": "(ρ)", **fields}
-
-
-def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
     """ρ between the condition and the medians (and the best seeds), the medians' monotonic
-    fraction as the detail; ``fields`` override these (:func:`held_at_bound`'s)."""
-    x, medians = list(series), [s.median for s in series.values()]
-    frac = monotonic_fraction(x, medians, direction)
-    return {
-        "median": rho(x, medians),
-        "best": rho(x, [s.best for s in series.values()]),
-        "unit": "(ρ)",
-        "detail": f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else "",
-        **fields,
+    fraction as the detail; with ``against``, ρ between its medians (best seeds) and these at
+    their common conditions, no detail; ``fields`` override these (:func:`held_at_bound`'s)."""
+    common = [c for c in series if against is None or c in against]
+    stats = {
+        k: rho(
+            [getattr(against[c], k) for c in common] if against else common,
+            [getattr(series[c], k) for c in common],
+        )
+        for k in ("median", "best")
     }
+    frac = monotonic_fraction(common, [series[c].median for c in common], direction)
+    detail = "" if against is not None or math.isnan(frac) else f"monotonic fraction {frac:.2f}"
+    return {**stats, "unit": "(ρ)", "detail": detail, **fields}
 
 
 def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str, Any]:
@@ -432,11 +430,10 @@ def with_confidence(
     for _ in range(resamples):
         again = {c.id: c for c in claims_of(resample(strata, rng))}
         for c in claims:
-            other = again.get(c.id)
-            if other is None:
-                flips[c.id] += 1.0
-            else:
-                flips[c.id] += (other.verdict != c.verdict, other.best_verdict != c.best_verdict)
+            o = again.get(c.id)
+            flips[c.id] += (
+                1.0 if o is None else (o.verdict != c.verdict, o.best_verdict != c.best_verdict)
+            )
     return [_settled(c, *(flips[c.id] / resamples)) for c in claims]
 
 

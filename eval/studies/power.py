@@ -96,15 +96,13 @@ def draw(
     """Figs. 7-8: F̄_v and F̄_h, and F̄_a, over powers, one series per method."""
     h_obj = plan.reading.horizontal_objective
     # F̄_v and F̄_h of each method side by side (F̄_h its variant 1: figures.series_style)
+    label = figures.method_label
     forces = [
         figures.Series(
-            f"{name}, {figures.method_label(m)}",
-            excess(rows, m, "tear-drop", axis, h_obj),
-            method=m,
-            variant=k,
+            f"{n}, {label(m)}", excess(rows, m, "tear-drop", a, h_obj), method=m, variant=k
         )
         for m in plan.methods
-        for k, (name, axis) in enumerate((("F̄_v", "vertical"), ("F̄_h", "horizontal")))
+        for k, (n, a) in enumerate((("F̄_v", "vertical"), ("F̄_h", "horizontal")))
     ]
     fa = plan.series(lambda m: attainable(rows, m, "tear-drop", h_obj))
     paper = [
@@ -139,7 +137,7 @@ def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, dict[float, Spre
     }
 
 
-def at_power(force: str, power: float) -> C.Measure:
+def at(force: str, power: float) -> C.Measure:
     """``number``: the ``force`` (a :func:`view` key) at ``power`` [W/kg] over seeds."""
 
     def measure(series: Mapping[str, Mapping[float, Spread]], _: float) -> C.Stats:
@@ -169,19 +167,13 @@ def ratio(series: Mapping[str, Mapping[float, Spread]], _: Any) -> C.Stats:
     return {"median": float(med), "q25": float(q25), "q75": float(q75), "best": best, "unit": "%"}
 
 
-def _at_powers(cid: str, label: str, figure: str, force: str, paper: Mapping[float, float]):
-    """``number`` claims ``cid`` a, b, …: ``label`` at each of the paper's powers."""
+def _at_powers(cid: str, what: str, fig: str, force: str, paper: Mapping[float, float]):
+    """``number`` claims ``cid`` a, b, …: ``what`` at each of the paper's powers."""
     return tuple(
         C.ClaimSpec(
-            f"{cid}{'ab'[k]}",
-            figure,
-            f"{label} at {p:g} W/kg",
-            f"≈ {value:g}",
-            "number",
-            value,
-            at_power(force, p),
+            f"{cid}{'ab'[k]}", fig, f"{what} at {p:g} W/kg", f"≈ {v:g}", "number", v, at(force, p)
         )
-        for k, (p, value) in enumerate(paper.items())
+        for k, (p, v) in enumerate(paper.items())
     )
 
 

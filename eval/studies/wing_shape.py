@@ -5,7 +5,7 @@ are the sweeps' own."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -64,13 +64,13 @@ def draw(
     plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 14-16: the planforms, and η and F̄_a of each planform, one series per method."""
-    h_obj = plan.reading.horizontal_objective
+    views, label = {m: view(plan, rows, m) for m in plan.methods}, figures.method_label
 
-    def by_planform(points: Callable[[str, str], Mapping[float, Spread]]) -> list[figures.Series]:
-        """One series per method and planform of ``points(method, planform)``."""
-        variant = figures.PLANFORM_VARIANT
+    def by_planform(key: str) -> list[figures.Series]:
+        """One series per method and planform of ``key`` (:func:`view`)."""
+        v = figures.PLANFORM_VARIANT
         return [
-            figures.Series(_label(m, pf), points(m, pf), method=m, variant=variant[pf])
+            figures.Series(f"{label(m)}, {pf} wing", views[m][key][pf], method=m, variant=v[pf])
             for m in plan.methods
             for pf in PLANFORMS
         ]
@@ -78,7 +78,7 @@ def draw(
     gain = f"≈ {PAPER_GAIN_AT_2:g} % more at 2 m/s"
     fig15 = figures.Panel(
         "efficiency η [%]",
-        by_planform(lambda m, planform: _efficiency(rows, m, planform)),
+        by_planform("efficiency"),
         # Fig. 6's number is the tear-drop's; the text of Fig. 15 names the peak and gives the
         # real wing's gain at 2 m/s relative to it.
         paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, "paper, tear-drop")],
@@ -88,7 +88,7 @@ def draw(
     )
     fig16 = figures.Panel(
         excess_label("attainable F̄_a"),
-        by_planform(lambda m, planform: attainable(rows, m, planform, h_obj)),
+        by_planform("attainable"),
         # The paper's F̄_a (Fig. 8) is the tear-drop's; Fig. 16's text gives the real wing only
         # relative to it.
         paper=paper_attainable("paper, tear-drop"),
@@ -135,11 +135,6 @@ def _efficiency(rows: Rows, method: str, planform: str) -> dict[float, Spread]:
     return by_condition(rows, "efficiency_pct", method=method, task="level", planform=planform)
 
 
-def _label(method: str, planform: str) -> str:
-    """Legend label naming the method readably and the wing, for both planforms."""
-    return f"{figures.method_label(method)}, {planform} wing"
-
-
 def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], stat: str) -> float:
     """Share of the common conditions where the real wing's statistic beats the tear-drop's."""
     pairs = [(getattr(real[c], stat), getattr(tear[c], stat)) for c in real if c in tear]
@@ -160,7 +155,7 @@ def view(plan: StudyPlan, rows: Rows, method: str) -> Planforms:
     }
 
 
-def real_wins(quantity: str) -> C.Measure:
+def wins(quantity: str) -> C.Measure:
     """``compare``: the share of conditions where the real wing's ``quantity`` beats the
     tear-drop's (the claim: 1)."""
 
@@ -192,20 +187,15 @@ def gain_at_2(by: Planforms, _: float) -> C.Stats:
 EVERY_SPEED = "the real wing is more efficient than the tear-drop at every speed (share of speeds)"
 EVERY_POWER = "the real wing attains slightly more F̄_a at every power (share of powers)"
 GAIN = "efficiency gain of the real wing at 2 m/s (relative)"
+ALL = ("==", 1.0)
 CLAIMS: tuple[C.ClaimSpec, ...] = (
-    C.ClaimSpec(
-        "W1", "Fig. 15", EVERY_SPEED, "every speed", "compare", ("==", 1.0), real_wins("efficiency")
-    ),
+    C.ClaimSpec("W1", "Fig. 15", EVERY_SPEED, "every speed", "compare", ALL, wins("efficiency")),
     C.ClaimSpec("W2", "Fig. 15", GAIN, "≈ 12 %", "number", PAPER_GAIN_AT_2, gain_at_2),
     *(
-        at_best_speed(
-            f"W3{'ab'[k]}", "Fig. 15", f"{pf} wing: efficiency peaks at 1.5 m/s", peak(pf)
-        )
-        for k, pf in enumerate(PLANFORMS)
+        at_best_speed(cid, "Fig. 15", f"{pf} wing: efficiency peaks at 1.5 m/s", peak(pf))
+        for cid, pf in zip(("W3a", "W3b"), PLANFORMS, strict=True)
     ),
-    C.ClaimSpec(
-        "W4", "Fig. 16", EVERY_POWER, "every power", "compare", ("==", 1.0), real_wins("attainable")
-    ),
+    C.ClaimSpec("W4", "Fig. 16", EVERY_POWER, "every power", "compare", ALL, wins("attainable")),
 )
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)
