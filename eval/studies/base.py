@@ -263,15 +263,8 @@ def write_tables(
     """Write ``DIR/<name>/records.json`` (the index), ``<name>.csv`` (tidy rows) and
     ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters)."""
     rows = tidy_rows(records)
-    index = [
-        {
-            "key": job.key,
-            "file": f"../{RECORDS_DIR}/{job.key}.json",
-            "label": job.label(),
-            "job": job.to_dict(),
-        }
-        for job in sorted(records, key=lambda j: j.label())
-    ]
+    entry = lambda j: {"key": j.key, "file": f"../{RECORDS_DIR}/{j.key}.json", "label": j.label()}  # noqa: E731
+    index = [{**entry(job), "job": job.to_dict()} for job in sorted(records, key=Job.label)]
     paths = [out_dir / name / f for f in (INDEX_FILE, f"{name}.csv", f"{name}_summary.csv")]
     write_json_atomic(paths[0], index)
     write_csv_atomic(paths[1], rows)

@@ -270,16 +270,10 @@ class ClaimSpec:
         if fields is None:
             return None
         row = {"statement": self.statement.format_map(words), "note": self.note, **fields}
-        return Claim(
-            id=self.id if index == 0 else f"{self.id}/{method}",
-            study=study,
-            figure=self.figure,
-            paper=self.paper,
-            rule=self.rule,
-            verdict=verdict(judge(row.get("median", math.nan), self.rule, self.target)),
-            best_verdict=verdict(judge(row.get("best", math.nan), self.rule, self.target)),
-            **row,
-        )
+        ok = lambda k: verdict(judge(row.get(k, math.nan), self.rule, self.target))  # noqa: E731
+        cid = self.id if index == 0 else f"{self.id}/{method}"
+        own = {"study": study, "figure": self.figure, "paper": self.paper, "rule": self.rule}
+        return Claim(cid, **own, verdict=ok("median"), best_verdict=ok("best"), **row)
 
 
 def judged(
@@ -326,22 +320,14 @@ def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
 
 
 def trend_stats(
-    series: Mapping[float, Spread],
-    direction: int,
-    against: Mapping[float, Spread] | None = None,
-    **fields: Any,
+    series: Mapping[float, Spread], direction: int, against: Mapping | None = None, **fields: Any
 ) -> dict[str, Any]:
     """ρ between the condition and the medians (and the best seeds), the medians' monotonic
     fraction as the detail; with ``against``, ρ between its medians (best seeds) and these at
     their common conditions, no detail; ``fields`` override these (:func:`held_at_bound`'s)."""
     common = [c for c in series if against is None or c in against]
-    stats = {
-        k: rho(
-            [getattr(against[c], k) for c in common] if against else common,
-            [getattr(series[c], k) for c in common],
-        )
-        for k in ("median", "best")
-    }
+    x = lambda k: common if against is None else [getattr(against[c], k) for c in common]  # noqa: E731
+    stats = {k: rho(x(k), [getattr(series[c], k) for c in common]) for k in ("median", "best")}
     frac = monotonic_fraction(common, [series[c].median for c in common], direction)
     detail = "" if against is not None or math.isnan(frac) else f"monotonic fraction {frac:.2f}"
     return {**stats, "unit": "(ρ)", "detail": detail, **fields}

@@ -233,17 +233,9 @@ def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
     else:
         q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
     top = max(feasible, key=lambda r: (float(r["objective_value"]), -int(r["seed"])))
-    return Spread(
-        values=tuple(float(v) for v in values),
-        seeds=tuple(int(r["seed"]) for r in feasible),
-        median=float(median),
-        q25=float(q25),
-        q75=float(q75),
-        best=float(top[quantity]),
-        best_seed=int(top["seed"]),
-        n=len(rows),
-        n_feasible=len(feasible),
-    )
+    seeds = tuple(int(r["seed"]) for r in feasible)
+    stats = (float(median), float(q25), float(q75), float(top[quantity]), int(top["seed"]))
+    return Spread(tuple(float(v) for v in values), seeds, *stats, len(rows), len(feasible))
 
 
 def select(rows: Iterable[Mapping[str, Any]], **where: Any) -> list[Mapping[str, Any]]:
@@ -281,16 +273,10 @@ def spread_summary_rows(rows: Sequence[Mapping[str, Any]], quantities: Sequence[
     for key, members in series_conditions(rows):
         for quantity in quantities:
             s = spread(members, quantity)
-            out.append(
-                {
-                    **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
-                    "condition": key[-1],
-                    "quantity": quantity,
-                    "meaning": QUANTITIES.get(quantity, ""),
-                    **{k: getattr(s, k) for k in SUMMARY_FIELDS},
-                    "pinned": pinned(members, quantity),
-                }
-            )
+            row = dict(zip((*SERIES_KEYS, "condition"), key, strict=True))
+            row |= {"quantity": quantity, "meaning": QUANTITIES.get(quantity, "")}
+            row |= {k: getattr(s, k) for k in SUMMARY_FIELDS}
+            out.append({**row, "pinned": pinned(members, quantity)})
     return out
 
 
@@ -308,15 +294,9 @@ def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> Rows:
             if not (side := pinned(members, name)):
                 continue
             sign = -1 if side == "lower" else 1
-            out.append(
-                {
-                    **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
-                    "condition": key[-1],
-                    "condition_unit": members[0]["condition_unit"],
-                    "parameter": name,
-                    "bound": side,
-                    "value": (bounds.lower if sign < 0 else bounds.upper)[index],
-                    "share": float(np.mean(at[:, index] == sign)),
-                }
-            )
+            row = dict(zip((*SERIES_KEYS, "condition"), key, strict=True))
+            row |= {"condition_unit": members[0]["condition_unit"], "parameter": name}
+            value = (bounds.lower if sign < 0 else bounds.upper)[index]
+            share = float(np.mean(at[:, index] == sign))
+            out.append({**row, "bound": side, "value": value, "share": share})
     return out

@@ -64,13 +64,13 @@ def draw(
     plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 14-16: the planforms, and η and F̄_a of each planform, one series per method."""
-    views, label = {m: view(plan, rows, m) for m in plan.methods}, figures.method_label
+    views = {m: view(plan, rows, m) for m in plan.methods}
 
     def by_planform(key: str) -> list[figures.Series]:
         """One series per method and planform of ``key`` (:func:`view`)."""
         v = figures.PLANFORM_VARIANT
         return [
-            figures.Series(f"{label(m)}, {pf} wing", views[m][key][pf], method=m, variant=v[pf])
+            figures.Series(_label(m, pf), views[m][key][pf], method=m, variant=v[pf])
             for m in plan.methods
             for pf in PLANFORMS
         ]
@@ -133,6 +133,11 @@ def _paper_gain(rows: Rows, method: str) -> list[tuple[float, float, str]]:
 def _efficiency(rows: Rows, method: str, planform: str) -> dict[float, Spread]:
     """η [%] over speeds of ``method`` with ``planform``."""
     return by_condition(rows, "efficiency_pct", method=method, task="level", planform=planform)
+
+
+def _label(method: str, planform: str) -> str:
+    """Legend label naming the method readably and the wing, for both planforms."""
+    return f"{figures.method_label(method)}, {planform} wing"
 
 
 def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], stat: str) -> float:

@@ -157,15 +157,8 @@ class ReadingResult:
 
 #: The columns of readings.csv, in order.
 CSV_COLUMNS: tuple[str, ...] = (
-    "reading",
-    "kind",
-    "changes",
-    *DECISION_OPTIONS,
-    "rotational_coefficient",
-    "horizontal_objective",
-    "search",
-    *COUNTS,
-    *HEADLINES,
+    *("reading", "kind", "changes", *DECISION_OPTIONS),
+    *("rotational_coefficient", "horizontal_objective", "search", *COUNTS, *HEADLINES),
     "description",
 )
 
@@ -303,14 +296,11 @@ def study_jobs(
     for name, study in PAPER_STUDIES.items():
         out[name] = []
         pairs = zip(study.jobs(base), study.jobs(p), strict=True)
-        for position, (default_job, job) in enumerate(pairs):
-            if job.key == default_job.key or job.task in full:
-                out[name].append(job)
-                continue
-            strokes = None
-            if optima is not None:
-                strokes = list({tuple(optima[source][name][position]): None for source in sources})
-            out[name].append(continuation.job(job, strokes))
+        for i, (default_job, job) in enumerate(pairs):  # i: the job's position in its study
+            if job.key != default_job.key and job.task not in full:
+                at = None if optima is None else {tuple(optima[s][name][i]): None for s in sources}
+                job = continuation.job(job, None if at is None else list(at))
+            out[name].append(job)
     return out
 
 
@@ -354,16 +344,12 @@ def full_tasks(
     rows) found them short by more than ``full_median`` or ``full_lowest``, or a continued
     optimum infeasible where the full run's is feasible."""
     out: dict[str, dict[str, str]] = {}
+    limits = {"median": continuation.full_median, "lowest": continuation.full_lowest}
     for row in summary:
         if row["reading"] == "all" or row["task"] == "all":
             continue
         why = [
-            f"{key} {100 * row[key]:+.1f} %"
-            for key, limit in (
-                ("median", continuation.full_median),
-                ("lowest", continuation.full_lowest),
-            )
-            if row["pairs"] and row[key] < limit
+            f"{k} {100 * row[k]:+.1f} %" for k, v in limits.items() if row["pairs"] and row[k] < v
         ]
         if count := row["infeasible_continued"]:
             why.append(f"{count} continued optim{'um' if count == 1 else 'a'} infeasible")

@@ -20,8 +20,7 @@ from matplotlib.patches import Patch, Rectangle
 
 from eval.figures import PALETTE, legend, save
 from eval.studies import report as study_report
-from eval.studies.base import StudyPlan
-from eval.studies.readings.plan import COUNTS, HEADLINES, Continuation, ReadingResult
+from eval.studies.readings.plan import COUNTS, HEADLINES, ReadingResult
 from tandem_env.io.files import write_text_atomic
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
@@ -63,25 +62,28 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
 
 
 def write_readings_report(
-    path: Path,
-    plan: StudyPlan,
-    results: Sequence[ReadingResult],
-    words: str,
-    continuation: Continuation | None,
-    full: Mapping[str, Mapping[str, str]],
-    table: Path,
-    figure: Path,
-    check: Sequence[Mapping[str, Any]],
+    path: Path, study: Any, table: Path, figure: Path, check: Sequence[Mapping[str, Any]]
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it: the
-    ``results`` of its readings, the best, which decision moves which claim, the matrix; the
-    combination rule in ``words``, its ``continuation`` (or None), the bias ``check``
-    (``check_summary`` rows) and the tasks run in ``full``."""
-    base = path.parent
-    default = results[0]
-    best = max(results, key=lambda r: r.agree)
-    n_claims = len(default.claims)
-    base_head = default.headline()
+    """Write the readings study's report to ``path`` (atomically) and return it: the results of
+    the readings of ``study`` (a :class:`~eval.studies.readings.run.ReadingsPlan` that ran), the
+    best, which decision moves which claim, the matrix ``figure`` (data: ``table``); its
+    combination rule, its continuation (or None), the bias ``check`` (``check_summary`` rows)
+    and the tasks run in full."""
+    plan, results, base = study.plan, study.results, path.parent
+    default, best = results[0], max(results, key=lambda r: r.agree)
+    n_claims, base_head, counts = len(default.claims), default.headline(), best.counts
+    # every reading as good as the best, which is the first of them (max keeps the first)
+    ties = [f", tied with `{r.reading.name}`" for r in results if r.agree == best.agree]
+    reached = "reached" if best.agree >= READINGS_GOAL else "not reached"
+    moves: list[study_report.Column] = [
+        READING_COLUMNS[0],
+        ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
+        ("Δ agree", lambda r: f"{r.agree - default.agree:+d}"),
+        *(
+            (f"Δ {k}", lambda r, k=k: _num(r.headline()[k] - base_head[k], "+.3g"))
+            for k in HEADLINES
+        ),
+    ]
     parts = [
         "# Readings of the paper: which reading reproduces which claim",
         "",
@@ -97,23 +99,15 @@ def write_readings_report(
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
         f"Combination rule (combinations derived from the singles' results, not chosen by "
-        f"hand): {words}.",
+        f"hand): {study.words}.",
         "",
-        *_continuation_section(continuation, check, full),
+        *_continuation_section(study.continuation, check, study.full),
         "## Best reading",
         "",
-        f"`{best.reading.name}`"
-        + "".join(
-            f", tied with `{r.reading.name}`"
-            for r in results
-            if r.agree == best.agree and r is not best
-        )
-        + f": {best.agree} of {n_claims} claims agree "
-        f"({best.differ} differ, {best.counts.undecided} undecided, "
-        f"{best.counts.not_identifiable} not identifiable, {best.counts.no_data} without data); "
-        "the default: "
-        f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
-        + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),
+        f"`{best.reading.name}`{''.join(ties[1:])}: {best.agree} of {n_claims} claims agree "
+        f"({best.differ} differ, {counts.undecided} undecided, {counts.not_identifiable} not "
+        f"identifiable, {counts.no_data} without data); the default: {default.agree}. Goal: "
+        f"{READINGS_GOAL} or more of {n_claims} ({reached}).",
         "",
         f"{best.reading.description}.",
         "",
@@ -125,18 +119,7 @@ def write_readings_report(
         "lie inside the other's inter-quartile range over seeds: within the seed-to-seed "
         "spread, i.e. possibly search noise.",
         "",
-        *study_report.markdown_table(
-            [
-                READING_COLUMNS[0],
-                ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
-                ("Δ agree", lambda r: f"{r.agree - default.agree:+d}"),
-                *(
-                    (f"Δ {k}", lambda r, k=k: _num(r.headline()[k] - base_head[k], "+.3g"))
-                    for k in HEADLINES
-                ),
-            ],
-            results[1:],
-        ),
+        *study_report.markdown_table(moves, results[1:]),
         "",
         "## Claims × readings",
         "",

@@ -259,23 +259,16 @@ class ReadingsPlan:
     def finish(self, run: PlanRun) -> ReadingsResult:
         """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
         ``run`` (this plan's)."""
-        out = self.store.directory
-        plan = self.plan
-        results = self.results
+        out, plan, results, words = self.store.directory, self.plan, self.results, self.words
         if self.rows:
             write_csv_atomic(out / CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
-        csv_path = out / "readings.csv"
-        report = out / "report.md"
+        csv_path, report = out / "readings.csv", out / "report.md"
         write_csv_atomic(csv_path, csv_rows(results))
         methods = ", ".join(plan.methods)
         title = f"Paper claims under each reading ({plan.preset.name} preset, {methods})"
         figure = matrix_figure(results, plan.figure(out, "readings_matrix"), title)
-        words = self.words
-        continuation = self.continuation
-        write_readings_report(
-            report, plan, results, words, continuation, self.full, csv_path, figure, summary
-        )
+        write_readings_report(report, self, csv_path, figure, summary)
         this = {
             "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "cpus": os.cpu_count(),
@@ -283,31 +276,19 @@ class ReadingsPlan:
             "phases": [{"name": name, **r.to_dict()} for name, r in run.runs.items()],
             "wall_time_s": round(run.wall_time, 1),
         }
-        write_json_atomic(
-            out / MANIFEST,
-            {
-                "preset": plan.preset.name,
-                "methods": list(plan.methods),
-                "claims": [
-                    {"id": c.id, "statement": c.statement, "paper": c.paper}
-                    for c in results[0].claims
-                ],
-                "readings": [
-                    {
-                        "name": r.reading.name,
-                        "changes": r.reading.changes(),
-                        "agree": r.agree,
-                        "verdicts": r.verdicts(),
-                    }
-                    for r in results
-                ],
-                "combination_rule": words,
-                "continuation": None if continuation is None else asdict(continuation),
-                "continuation_check": summary,
-                "run_in_full": self.full,
-                "invocations": [*self.earlier, this],
-            },
-        )
+        claims = [
+            {k: getattr(c, k) for k in ("id", "statement", "paper")} for c in results[0].claims
+        ]
+        readings = [
+            {"name": r.reading.name, "changes": r.reading.changes(), "agree": r.agree}
+            | {"verdicts": r.verdicts()}
+            for r in results
+        ]
+        continuation = None if self.continuation is None else asdict(self.continuation)
+        manifest = {"preset": plan.preset.name, "methods": list(plan.methods), "claims": claims}
+        manifest |= {"readings": readings, "combination_rule": words, "continuation": continuation}
+        manifest |= {"continuation_check": summary, "run_in_full": self.full}
+        write_json_atomic(out / MANIFEST, {**manifest, "invocations": [*self.earlier, this]})
         files = (csv_path, figure, report)
         runs = tuple(run.runs.values())
         return ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
