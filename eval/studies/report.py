@@ -193,6 +193,11 @@ def settings_lines(plan: StudyPlan) -> list[str]:
     ]
 
 
+def section(title: str, *lines: str, level: int = 2) -> list[str]:
+    """A Markdown section (lines): its heading of ``level``, a blank line, ``lines``, a blank."""
+    return [f"{'#' * level} {title}", "", *lines, ""]
+
+
 def write_report(
     path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
 ) -> Path:
@@ -207,31 +212,23 @@ def write_report(
         "",
         *settings_lines(plan),
         "",
-        "## Agreement rules",
-        "",
-        *agreement_rules(),
-        "",
-        "## Paper vs ours",
-        "",
-        *verdict_summary(claims),
-        "",
-        claims_table(claims),
-        "",
+        *section("Agreement rules", *agreement_rules()),
+        *section("Paper vs ours", *verdict_summary(claims), "", claims_table(claims)),
     ]
     if notes := [c for c in claims if c.detail or c.note]:
         texts = [f"- **{c.id}**: {'; '.join(t for t in (c.detail, c.note) if t)}" for c in notes]
-        parts += ["### Notes on the rows", "", *texts, ""]
-    parts += ["## Against the reference table", "", *plan.table_lines(rows), ""]
-    parts += ["## Understood differences", "", *[f"- {t}" for t in UNDERSTOOD.values()], ""]
+        parts += section("Notes on the rows", *texts, level=3)
+    parts += section("Against the reference table", *plan.table_lines(rows))
+    parts += section("Understood differences", *[f"- {t}" for t in UNDERSTOOD.values()])
     parts += pinned_section(rows)
     preset = plan.preset.name
     if missing := [n for n in all_studies if n not in {o.name for o in outputs}]:
         rerun = [f"- `{n}`: `python -m eval study {n} --preset {preset}`" for n in missing]
-        parts += ["## Not run", "", *rerun, ""]
-    parts += ["## Figures", "", FIGURE_KEY, ""]
+        parts += section("Not run", *rerun)
+    parts += section("Figures", FIGURE_KEY)
     for o in outputs:
-        parts += [f"### {o.title}", ""]
-        parts += [f"Data: {', '.join(file_link(f, base) for f in o.files)}", ""]
+        data = ", ".join(file_link(f, base) for f in o.files)
+        parts += section(o.title, f"Data: {data}", level=3)
         for caption, figure in o.figures:
             parts += [figure_markdown(caption, figure, base), ""]
     write_text_atomic(path, "\n".join(parts))
@@ -243,8 +240,7 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """The parameters pinned at a Table 4 bound, one line per parameter and bound (Markdown)."""
     found = pinned_parameters(rows)
     lines = [
-        "## Parameters pinned at Table 4 bounds",
-        "",
+        *section("Parameters pinned at Table 4 bounds")[:-1],
         f"A parameter is pinned at a condition when more than {PINNED_SHARE:.0%} of the feasible "
         f"seeds put it within {BOUND_TOLERANCE:.0%} of its Table 4 range of a bound "
         "(`pinned` in the summary CSVs, `at_bounds` per seed in the tidy CSVs); a bound the "

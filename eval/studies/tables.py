@@ -16,15 +16,8 @@ import numpy as np
 
 from agents.jobs import Job
 from agents.records import Record
-from tandem_env import (
-    PARAMETER_NAMES,
-    TABLE_4,
-    TABLE_4_BOUNDS,
-    StrokeBounds,
-    bound_sides,
-    describe_bounds,
-)
-from tandem_env.physics.stroke import UNBOUNDED
+from tandem_env import PARAMETER_NAMES, TABLE_4, TABLE_4_BOUNDS, StrokeBounds
+from tandem_env.physics.stroke import UNBOUNDED, bound_sides, describe_bounds
 
 #: Tidy rows, one per optimisation (:func:`tidy_rows`).
 Rows = list[dict[str, Any]]

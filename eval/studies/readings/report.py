@@ -134,10 +134,7 @@ def write_readings_report(
         "",
         *[f"- `{r.reading.name}`: {r.reading.description}" for r in results],
         "",
-        "## Agreement rules",
-        "",
-        *study_report.agreement_rules(),
-        "",
+        *study_report.section("Agreement rules", *study_report.agreement_rules()),
     ]
     write_text_atomic(path, "\n".join(parts))
     return path
