@@ -3,8 +3,7 @@ the analysis (:class:`Analysis`).
 
 A study module defines ``NAME``, ``TITLE``, ``jobs(plan) -> list[Job]`` and
 ``analyse(plan, records, out_dir) -> StudyOutput`` (the paper's studies: an :class:`Analysis`
-of their figures and claims); jobs two studies share run once.
-"""
+of their figures and claims); jobs two studies share run once."""
 
 from __future__ import annotations
 
@@ -104,9 +103,8 @@ class StudyPlan:
     def model_options(self) -> ModelOptions:
         """The model options of every job: the preset's and the reading's env keywords."""
         kwargs = {**dict(self.preset.env_kwargs), **self.reading.env_kwargs()}
-        return ModelOptions(
-            **{MODEL_OPTION_KWARGS[k]: v for k, v in kwargs.items() if k in MODEL_OPTION_KWARGS}
-        )
+        options = {MODEL_OPTION_KWARGS[k]: v for k, v in kwargs.items() if k in MODEL_OPTION_KWARGS}
+        return ModelOptions(**options)
 
     def figure(self, folder: Path, stem: str) -> Path:
         """The path of the figure ``stem`` in ``folder``, in the plan's format."""

@@ -4,8 +4,7 @@
 
 Runs ``study all``'s optimisations for the preset serially and on ``--scheduler`` (alternating,
 ``--repeat`` times) and prints the wall times, the job lengths and the best speed-up W workers
-can give (:func:`makespan`), measured and estimated for every preset (docs/scaling.md).
-"""
+can give (:func:`makespan`), measured and estimated for every preset (docs/scaling.md)."""
 
 from __future__ import annotations
 

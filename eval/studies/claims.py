@@ -4,8 +4,7 @@ Each study declares its claims once, as data (a ``CLAIMS`` table of :class:`Clai
 module judges and formats them all (:func:`judged`, :data:`TESTS`). Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
 best seed (what the paper's "best of N runs" gives); a verdict the bootstrap over seeds flips
 is undecided (:data:`CONFIDENCE_RULE`), and a claim about what the model does not depend on is
-not identifiable (:data:`IDENTIFIABILITY_RULE`).
-"""
+not identifiable (:data:`IDENTIFIABILITY_RULE`)."""
 
 from __future__ import annotations
 
@@ -210,14 +209,11 @@ def verdict(ok: bool | None) -> Verdict:
     return "no data" if ok is None else ("agrees" if ok else "differs")
 
 
-#: How each rule judges a statistic against the claim's target (:attr:`ClaimSpec.target`).
-ORDERS: dict[str, Callable[[float, float], bool]] = {">": operator.gt, "==": operator.eq}
-
-
 def _rises(rho: float, direction: int) -> bool:
     return direction * rho >= TREND_RHO
 
 
+#: How each rule judges a statistic against the claim's target (:attr:`ClaimSpec.target`).
 TESTS: dict[str, Callable[[float, Any], bool]] = {
     "number": lambda v, paper: abs(v - paper) <= RELATIVE_TOLERANCE * abs(paper),
     "range": lambda v, ends: (
@@ -228,7 +224,7 @@ TESTS: dict[str, Callable[[float, Any], bool]] = {
     "location": lambda at, paper: abs(at - paper) <= LOCATION_TOLERANCE + 1e-9,
     "angle": lambda v, paper: abs(v - paper) <= ANGLE_TOLERANCE,
     "phase": lambda v, in_phase: (v < IN_PHASE) == in_phase,
-    "compare": lambda v, order: ORDERS[order[0]](v, order[1]),
+    "compare": lambda v, order: {">": operator.gt, "==": operator.eq}[order[0]](v, order[1]),
 }
 
 
@@ -304,13 +300,6 @@ def rho(x: Sequence[float], y: Sequence[float]) -> float:
     return float(spearmanr(xa, ya).statistic)
 
 
-def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -> float:
-    """Share of consecutive steps (in x order) that move in ``direction`` (+1 rise, −1 fall)."""
-    xa, ya = _finite(x, y)
-    steps = np.diff(ya[np.argsort(xa)])
-    return math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
-
-
 # --- statistics: what a ClaimSpec's measure gives ----------------------------------------------
 def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
     """One spread over seeds: median, quartiles, best seed and the feasible seeds as the detail
@@ -323,12 +312,15 @@ def trend_stats(
     series: Mapping[float, Spread], direction: int, against: Mapping | None = None, **fields: Any
 ) -> dict[str, Any]:
     """ρ between the condition and the medians (and the best seeds), the medians' monotonic
-    fraction as the detail; with ``against``, ρ between its medians (best seeds) and these at
-    their common conditions, no detail; ``fields`` override these (:func:`held_at_bound`'s)."""
+    fraction (share of steps in the condition's order that move in ``direction``) as the
+    detail; with ``against``, ρ between its medians (best seeds) and these at their common
+    conditions, no detail; ``fields`` override these (:func:`held_at_bound`'s)."""
     common = [c for c in series if against is None or c in against]
     x = lambda k: common if against is None else [getattr(against[c], k) for c in common]  # noqa: E731
     stats = {k: rho(x(k), [getattr(series[c], k) for c in common]) for k in ("median", "best")}
-    frac = monotonic_fraction(common, [series[c].median for c in common], direction)
+    xa, ya = _finite(common, [series[c].median for c in common])
+    steps = np.diff(ya[np.argsort(xa)])
+    frac = math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
     detail = "" if against is not None or math.isnan(frac) else f"monotonic fraction {frac:.2f}"
     return {**stats, "unit": "(ρ)", "detail": detail, **fields}
 

@@ -5,8 +5,7 @@ power, C_r, spin, hover inflow, C_hf, F̄_h). A :class:`Reading` names one combi
 and changes only the env keywords of the studies' jobs (:meth:`eval.studies.base.StudyPlan.jobs`);
 the default reading changes nothing. The paper does not state its search either (PSO, no swarm
 size or stopping rule): a reading may carry a :class:`Search` that replaces the plan's method and
-budgets (:data:`PAPER_SEARCHES`, docs/efficiency.md).
-"""
+budgets (:data:`PAPER_SEARCHES`, docs/efficiency.md)."""
 
 from __future__ import annotations
 
@@ -294,10 +293,8 @@ def _paper_search(swarm: int, iterations: int) -> Reading:
 
 #: The paper-era search budgets (an assumption: swarms of 20-40 particles for 50-100 iterations,
 #: the range usual in PSO studies of that time), smallest first; docs/efficiency.md.
-PAPER_SEARCHES: tuple[Reading, ...] = (
-    _paper_search(20, 50),
-    _paper_search(40, 50),
-    _paper_search(40, 100),
+PAPER_SEARCHES: tuple[Reading, ...] = tuple(
+    _paper_search(swarm, iterations) for swarm, iterations in ((20, 50), (40, 50), (40, 100))
 )
 #: The middle of that range: 40 particles (the harness default) × 50 iterations.
 PAPER_SEARCH: Reading = PAPER_SEARCHES[1]

@@ -85,11 +85,6 @@ def attainable(
     return out
 
 
-def paper_attainable(label: str = "") -> list[tuple[float, float] | tuple[float, float, str]]:
-    """The paper's F̄_a (Fig. 8) as figure points, each labelled ``label`` if given."""
-    return [(p, v, label) if label else (p, v) for p, v in PAPER_ATTAINABLE.items()]
-
-
 def draw(
     plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
@@ -105,6 +100,7 @@ def draw(
         for k, (n, a) in enumerate((("F̄_v", "vertical"), ("F̄_h", "horizontal")))
     ]
     fa = plan.series(lambda m: attainable(rows, m, "tear-drop", h_obj))
+    attained = list(PAPER_ATTAINABLE.items())  # the paper's F̄_a (Fig. 8)
     paper = [
         (p, v, f"paper {name}")
         for name, d in (("F̄_v", PAPER_VERTICAL), ("F̄_h", PAPER_HORIZONTAL))
@@ -121,7 +117,7 @@ def draw(
             "Fig. 8: attainable specific excess force against available power",
             "fig8_attainable",
             "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
-            [figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable())],
+            [figures.Panel(excess_label("attainable F̄_a"), fa, paper=attained)],
         ),
     )
     return plan.sweep_figures(study_dir, "available power P/m [W/kg]", specs)

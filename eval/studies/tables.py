@@ -1,8 +1,7 @@
 """Records -> tidy rows (one per optimisation) -> per-condition statistics over seeds.
 
 Statistics use the feasible seeds only; "best" is the value at the feasible seed with the best
-objective, so every "best" column describes one and the same stroke.
-"""
+objective, so every "best" column describes one and the same stroke."""
 
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Analysis, StudyPlan
-from eval.studies.power import attainable, excess_label, paper_attainable, series_jobs
+from eval.studies.power import PAPER_ATTAINABLE, attainable, excess_label, series_jobs
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, at_best_speed
 from eval.studies.tables import Rows, Spread, by_condition
 from tandem_env import Dragonfly
@@ -49,13 +49,9 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
         for wing_name, wing in (("fore", insect.fore), ("hind", insect.hind)):
             if planform == "real":
                 polyval = np.polynomial.polynomial.polyval
-                lead, trail = (
-                    1e3 * wing.length * polyval(r_hat, np.asarray(c, float))
-                    for c in wing.real_edges
-                )
+                lead, trail = (1e3 * wing.length * polyval(r_hat, c) for c in wing.real_edges)
             else:
-                lead = 0.5e3 * wing.chord(r_hat)
-                trail = -0.5e3 * wing.chord(r_hat)
+                lead, trail = 0.5e3 * wing.chord(r_hat), -0.5e3 * wing.chord(r_hat)
             out.append((f"{wing_name}, {planform}", 1e3 * wing.length * r_hat, lead, trail))
     return out
 
@@ -91,7 +87,7 @@ def draw(
         by_planform("attainable"),
         # The paper's F̄_a (Fig. 8) is the tear-drop's; Fig. 16's text gives the real wing only
         # relative to it.
-        paper=paper_attainable("paper, tear-drop"),
+        paper=[(p, v, "paper, tear-drop") for p, v in PAPER_ATTAINABLE.items()],
         paper_note="paper: real wing slightly above tear-drop at every power",
     )
     fig14 = figures.planform_figure(planform_outlines(), plan.figure(study_dir, "fig14_planforms"))

@@ -5,8 +5,7 @@ default reading, each single reading (:data:`SINGLES`) and the combinations thei
 point to (:func:`combinations`), a reading continuing from the optima of those nearest it
 (:class:`Continuation`; docs/reproduction.md, "Readings"). The parts: :mod:`.plan` (readings,
 continuation, jobs), :mod:`.run` (the phases, the analysis, the outputs, the command line),
-:mod:`.report` (the report and its matrix figure) and :mod:`.timing`.
-"""
+:mod:`.report` (the report and its matrix figure) and :mod:`.timing`."""
 
 from __future__ import annotations
 

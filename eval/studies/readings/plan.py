@@ -138,13 +138,8 @@ class ReadingResult:
         """Its verdict counts on the median."""
         return VerdictCount.of(self.claims)
 
-    @property
-    def agree(self) -> int:
-        return self.counts.agree
-
-    @property
-    def differ(self) -> int:
-        return self.counts.differ
+    agree = property(lambda self: self.counts.agree, doc="How many claims agree (the median's).")
+    differ = property(lambda self: self.counts.differ, doc="How many claims differ (the median's).")
 
     def verdicts(self) -> dict[str, str]:
         return {c.id: c.verdict for c in self.claims}
@@ -383,9 +378,8 @@ def combinations(
     words = f"singles that raised the agreeing claims over the default ({base}): {gains}"
     if skipped:
         words += f"; left out: {', '.join(skipped)}"
-    groups: list[list[ReadingResult]] = [chosen[:2]] if len(chosen) >= 2 else []
-    if len(chosen) >= 3:
-        groups.append(chosen)
+    # the best two and all (the same group when there are two: duplicates are dropped below)
+    groups = [group for group in (chosen[:2], chosen) if len(group) >= 2]
     if gainers:
         top = gainers[0]
         groups += [

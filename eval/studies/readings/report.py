@@ -201,6 +201,8 @@ VERDICT_STYLE: dict[str, tuple[str, str, str]] = {
     "no data": ("#bbbbbb", "–", "black"),
 }
 _CODE = {verdict: k for k, verdict in enumerate(VERDICT_STYLE)}
+#: The frame around a verdict changed from the first reading's.
+FRAME: dict[str, Any] = {"fill": False, "ec": "black", "lw": 1.3}
 
 
 def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> Path:
@@ -224,9 +226,7 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
             _, glyph, ink = styles[grid[i][j]]
             ax.text(j, i, glyph, ha="center", va="center", fontsize=6.5, color=ink)
             if j and verdicts[i] != reference[i]:
-                ax.add_patch(
-                    Rectangle((j - 0.45, i - 0.42), 0.9, 0.84, fill=False, ec="black", lw=1.3)
-                )
+                ax.add_patch(Rectangle((j - 0.45, i - 0.42), 0.9, 0.84, **FRAME))
     labels = [
         f"{name} ({verdicts.count('agrees')} ✓, {verdicts.count('undecided')} ?)"
         for name, verdicts in columns
@@ -242,7 +242,7 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
         ax.axvline(split - 0.5, color="black", linewidth=1.5)
     ax.set_title(title, fontsize=9)
     entries = [(Patch(color=color), f"{g} {v}") for v, (color, g, _) in VERDICT_STYLE.items()]
-    changed = Patch(fill=False, ec="black", lw=1.3)
+    changed = Patch(**FRAME)
     legend(ax, [*entries, (changed, f"changed vs {columns[0][0]}")])
     fig.tight_layout()
     return save(fig, path)

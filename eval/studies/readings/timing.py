@@ -7,8 +7,7 @@ studies analysed (``DIR/readings_manifest.json``, the studies' indexes) times ea
 ``--preset``'s jobs under the same readings, run in full (shared jobs once): the job-seconds
 per reading, the serial total and the best wall time on W workers
 (:func:`eval.studies.bench_workers.makespan`). An estimate: the rates carry the measured run's
-machine and load.
-"""
+machine and load."""
 
 from __future__ import annotations
 
