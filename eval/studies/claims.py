@@ -119,7 +119,7 @@ class Claim:
     """The same statistic from each condition's best seed."""
     unit: str = ""
     verdict: Verdict = "no data"
-    """On the median, after the bootstrap (:func:`decide`)."""
+    """On the median, after the bootstrap (:func:`_settled`)."""
     best_verdict: Verdict = "no data"
     """On the best seed, after the bootstrap."""
     leaning: Verdict | None = None
@@ -169,12 +169,6 @@ class Claim:
         return "–" if math.isnan(self.best) else f"{self.best:.3g} {self.unit}".strip()
 
 
-def decide(leaning: Verdict, flips: float) -> Verdict:
-    """The confidence rule: a decided verdict that flips in more than :data:`FLIP_THRESHOLD`
-    of the resamples is ``"undecided"``; any other stays as it is."""
-    return "undecided" if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD else leaning
-
-
 @dataclass(frozen=True)
 class VerdictCount:
     """How many claims agree, differ, are undecided, not identifiable or without a verdict."""
@@ -185,9 +179,7 @@ class VerdictCount:
     no_data: int
     not_identifiable: int = 0
 
-    @property
-    def decided(self) -> int:
-        return self.agree + self.differ
+    decided = property(lambda self: self.agree + self.differ, doc="Claims that agree or differ.")
 
     @classmethod
     def of(cls, claims: Iterable[Claim], best: bool = False) -> VerdictCount:
@@ -203,10 +195,6 @@ class VerdictCount:
             f"{self.agree} agree, {self.differ} differ, {self.undecided} undecided, "
             f"{self.not_identifiable} not identifiable, {self.no_data} no data"
         )
-
-
-def verdict(ok: bool | None) -> Verdict:
-    return "no data" if ok is None else ("agrees" if ok else "differs")
 
 
 def _rises(rho: float, direction: int) -> bool:
@@ -266,7 +254,8 @@ class ClaimSpec:
         if fields is None:
             return None
         row = {"statement": self.statement.format_map(words), "note": self.note, **fields}
-        ok = lambda k: verdict(judge(row.get(k, math.nan), self.rule, self.target))  # noqa: E731
+        said: dict[bool | None, Verdict] = {True: "agrees", False: "differs", None: "no data"}
+        ok = lambda k: said[judge(row.get(k, math.nan), self.rule, self.target)]  # noqa: E731
         cid = self.id if index == 0 else f"{self.id}/{method}"
         own = {"study": study, "figure": self.figure, "paper": self.paper, "rule": self.rule}
         return Claim(cid, **own, verdict=ok("median"), best_verdict=ok("best"), **row)
@@ -416,15 +405,17 @@ def with_confidence(
 
 
 def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] = ()) -> Claim:
-    """``c`` with each verdict as run its leaning and the verdict :func:`decide` gives it with
-    its share of flipping resamples (NaN for a verdict without data); ``lacks``: every verdict
-    "not identifiable", without a confidence."""
+    """``c`` with each verdict as run its leaning and its share of flipping resamples (NaN for a
+    verdict without data), the confidence rule deciding the verdict: a decided one that flips in
+    more than :data:`FLIP_THRESHOLD` of them is ``"undecided"``, any other stays; ``lacks``:
+    every verdict "not identifiable", without a confidence."""
     sides = {}
     for side, share in (("", flips), ("best_", best_flips)):
         said: Verdict = "not identifiable" if lacks else getattr(c, f"{side}verdict")
         share = math.nan if lacks or said in ("no data", "not run") else float(share)
+        decided = said in ("agrees", "differs")
         sides |= {
-            f"{side}verdict": decide(said, share),
+            f"{side}verdict": "undecided" if decided and share > FLIP_THRESHOLD else said,
             f"{side}leaning": said,
             f"{side}flips": share,
         }
