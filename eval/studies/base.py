@@ -112,7 +112,7 @@ class StudyPlan:
 
     def sweep_figures(
         self, folder: Path, xlabel: str, specs: Sequence[tuple[str, str, str, list[figures.Panel]]]
-    ) -> list[tuple[str, Path]]:
+    ) -> Drawn:
         """(caption, path) of each sweep figure ``(caption, stem, title, panels)`` of ``specs``
         over the condition axis ``xlabel``, drawn into ``folder`` in the plan's format."""
         return [
@@ -248,7 +248,7 @@ class StudyOutput:
     name: str
     title: str
     rows: Rows
-    figures: list[tuple[str, Path]]
+    figures: Drawn
     """(caption, path) of each figure."""
     claims: list[Claim]
     files: list[Path] = field(default_factory=list)
@@ -256,7 +256,7 @@ class StudyOutput:
 
 
 def write_tables(
-    name: str, records: Mapping[Job, Record], out_dir: Path, quantities: Sequence[str]
+    name: str, records: Records, out_dir: Path, quantities: Sequence[str]
 ) -> tuple[Rows, list[Path]]:
     """Write ``DIR/<name>/records.json`` (the index), ``<name>.csv`` (tidy rows) and
     ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters)."""
@@ -271,8 +271,12 @@ def write_tables(
     return rows, paths
 
 
-#: A study's figures from its plan, tidy rows, records and folder: (caption, path) of each.
-Figures = Callable[[StudyPlan, Rows, Mapping[Job, Record], Path], list[tuple[str, Path]]]
+#: A study's records by job.
+Records = Mapping[Job, Record]
+#: (caption, path) of each figure a study drew.
+Drawn = list[tuple[str, Path]]
+#: A study's figures from its plan, tidy rows, records and folder.
+Figures = Callable[[StudyPlan, Rows, Records, Path], Drawn]
 
 
 @dataclass(frozen=True)
@@ -288,9 +292,7 @@ class Analysis:
     claims: tuple[ClaimSpec, ...]
     view: Callable[[StudyPlan, Rows, str], Any]
 
-    def __call__(
-        self, plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path
-    ) -> StudyOutput:
+    def __call__(self, plan: StudyPlan, records: Records, out_dir: Path) -> StudyOutput:
         rows, files = write_tables(self.name, records, out_dir, self.quantities)
         figures = self.figures(plan, rows, records, out_dir / self.name)
         return StudyOutput(self.name, self.title, rows, figures, self.judge(plan, rows), files)

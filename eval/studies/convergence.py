@@ -9,7 +9,7 @@ The budget splits between search and polish run at the preset's own budgets (:fu
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -20,7 +20,7 @@ from agents.jobs import Job
 from agents.polish import split_settings as polish_settings
 from agents.records import Record
 from eval import figures
-from eval.studies.base import StudyOutput, StudyPlan, write_tables
+from eval.studies.base import Records, StudyOutput, StudyPlan, write_tables
 from eval.studies.presets import STUDY_PRESETS
 from eval.studies.report import Column, markdown_table
 from eval.studies.tables import Rows
@@ -175,7 +175,7 @@ CHECKPOINT_COLUMNS: tuple[Column, ...] = (
 )
 
 
-def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
+def analyse(plan: StudyPlan, records: Records, out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, ("objective_value",))
     spec = plan.preset.convergence
     labels = {

@@ -22,7 +22,7 @@ from agents.tasks import get_task
 from eval import figures
 from eval import kinematics_figures as kf
 from eval.studies import claims as C
-from eval.studies.base import Analysis, StudyPlan
+from eval.studies.base import Analysis, Drawn, Records, StudyPlan
 from eval.studies.tables import Rows, Spread, circular_median, select, spread, table4_bounds
 from tandem_env import PARAMETER_NAMES, bound_sides, stroke_history
 from tandem_env.envs import registration
@@ -86,7 +86,7 @@ def record_history(record: Record, n_samples: int = HISTORY_SAMPLES):
     )
 
 
-def traces(records: Mapping[Job, Record], rows: Rows, **where: Any) -> list[kf.Trace]:
+def traces(records: Records, rows: Rows, **where: Any) -> list[kf.Trace]:
     """One trace per seed of the series ``where`` picks; the best feasible seed is bold."""
     chosen = select(rows, **where)
     best_seed = spread(chosen, "objective_value").best_seed
@@ -101,9 +101,7 @@ def traces(records: Mapping[Job, Record], rows: Rows, **where: Any) -> list[kf.T
     return out
 
 
-def draw(
-    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
-) -> list[tuple[str, Path]]:
+def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 9-13 of the first method's strokes, each seed's."""
     p = plan.preset
     method = plan.methods[0]

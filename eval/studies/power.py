@@ -13,10 +13,9 @@ from typing import Any
 import numpy as np
 
 from agents.jobs import Job
-from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Analysis, StudyPlan
+from eval.studies.base import Analysis, Drawn, Records, StudyPlan
 from eval.studies.tables import Rows, Spread, by_condition, select, spread
 
 NAME = "power"
@@ -85,9 +84,7 @@ def attainable(
     return out
 
 
-def draw(
-    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
-) -> list[tuple[str, Path]]:
+def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 7-8: F̄_v and F̄_h, and F̄_a, over powers, one series per method."""
     h_obj = plan.reading.horizontal_objective
     # F̄_v and F̄_h of each method side by side (F̄_h its variant 1: figures.series_style)

@@ -261,14 +261,11 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
 
 def figure_markdown(caption: str, path: Path, base: Path) -> str:
     """A figure in the report: embedded, or linked for a PDF (Markdown viewers cannot show it)."""
-    target = relative_path(path, base)
+    target = Path(os.path.relpath(path, base)).as_posix()
     return f"[{caption} (PDF)]({target})" if path.suffix == ".pdf" else f"![{caption}]({target})"
 
 
 def file_link(path: Path, base: Path) -> str:
     """A Markdown link to ``path``, named by its path relative to ``base``."""
-    return f"[`{relative_path(path, base)}`]({relative_path(path, base)})"
-
-
-def relative_path(path: Path, base: Path) -> str:
-    return Path(os.path.relpath(path, base)).as_posix()
+    target = Path(os.path.relpath(path, base)).as_posix()
+    return f"[`{target}`]({target})"

@@ -9,10 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from agents.jobs import Job
-from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Analysis, StudyPlan
+from eval.studies.base import Analysis, Drawn, Records, StudyPlan
 from eval.studies.tables import Rows, by_condition, select, table4_bounds
 
 NAME = "speed"
@@ -36,9 +35,7 @@ def jobs(plan: StudyPlan) -> list[Job]:
     return plan.jobs("level", plan.preset.speeds)
 
 
-def draw(
-    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
-) -> list[tuple[str, Path]]:
+def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 4-6: each quantity over speeds, one series per method."""
 
     def panel(ylabel: str, quantity: str, **paper: Any) -> figures.Panel:
@@ -122,13 +119,9 @@ def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
     return C.spread_stats(s, best=best, unit="%", detail=f"{detail}, {C.seeds_feasible(s)}")
 
 
-def at_best_speed(
-    cid: str, figure: str, statement: str, measure: C.Measure, note: str = ""
-) -> C.ClaimSpec:
-    """A ``location`` claim: at the paper's best speed, 1.5 m/s."""
-    return C.ClaimSpec(
-        cid, figure, statement, "1.5 m/s", "location", PAPER_BEST_SPEED, measure, note
-    )
+def at_best_speed(cid: str, fig: str, what: str, measure: C.Measure, note: str = "") -> C.ClaimSpec:
+    """A ``location`` claim ``what``: at the paper's best speed, 1.5 m/s."""
+    return C.ClaimSpec(cid, fig, what, "1.5 m/s", "location", PAPER_BEST_SPEED, measure, note)
 
 
 FOLLOWS, P = "follows the power trend", "power_per_mass"

@@ -18,8 +18,9 @@ from agents.records import Record
 from tandem_env import PARAMETER_NAMES, TABLE_4, TABLE_4_BOUNDS, StrokeBounds
 from tandem_env.physics.stroke import UNBOUNDED, bound_sides, describe_bounds
 
-#: Tidy rows, one per optimisation (:func:`tidy_rows`).
+#: Tidy rows, one per optimisation (:func:`tidy_rows`), and one row as read.
 Rows = list[dict[str, Any]]
+Row = Mapping[str, Any]
 #: Columns that identify a series (one line in a figure).
 SERIES_KEYS: tuple[str, ...] = ("method", "task", "objective", "planform")
 
@@ -95,10 +96,8 @@ def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
     if not names or not feasible:
         return ""
     sides = _sides(feasible)[:, [PARAMETER_NAMES.index(n) for n in names]]
-    for side, word in ((-1, "lower"), (1, "upper")):
-        if all(np.mean(sides[:, k] == side) > PINNED_SHARE for k in range(len(names))):
-            return word
-    return ""
+    shares = {word: np.mean(sides == side, axis=0) for side, word in ((-1, "lower"), (1, "upper"))}
+    return next((word for word, share in shares.items() if np.all(share > PINNED_SHARE)), "")
 
 
 def _sides(rows: Sequence[Mapping[str, Any]]) -> np.ndarray:
@@ -235,18 +234,14 @@ def select(rows: Iterable[Mapping[str, Any]], **where: Any) -> list[Mapping[str,
     return [r for r in rows if all(r[k] == v for k, v in where.items())]
 
 
-def by_condition(
-    rows: Iterable[Mapping[str, Any]], quantity: str, **where: Any
-) -> dict[float, Spread]:
+def by_condition(rows: Iterable[Row], quantity: str, **where: Any) -> dict[float, Spread]:
     """{condition: Spread} of one series (``where`` picks it), conditions ascending."""
     chosen = select(rows, **where)
     conditions = sorted({float(r["condition"]) for r in chosen})
     return {c: spread(select(chosen, condition=c), quantity) for c in conditions}
 
 
-def series_conditions(
-    rows: Iterable[Mapping[str, Any]],
-) -> list[tuple[tuple[Any, ...], list[Mapping[str, Any]]]]:
+def series_conditions(rows: Iterable[Row]) -> list[tuple[tuple[Any, ...], list[Row]]]:
     """The rows grouped by series (:data:`SERIES_KEYS`, as text) and condition, in that order:
     ((method, task, objective, planform, condition), rows) each."""
     groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}

@@ -12,10 +12,9 @@ from typing import Any
 import numpy as np
 
 from agents.jobs import Job
-from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Analysis, StudyPlan
+from eval.studies.base import Analysis, Drawn, Records, StudyPlan
 from eval.studies.power import PAPER_ATTAINABLE, attainable, excess_label, series_jobs
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, at_best_speed
 from eval.studies.tables import Rows, Spread, by_condition
@@ -56,9 +55,7 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
     return out
 
 
-def draw(
-    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
-) -> list[tuple[str, Path]]:
+def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 14-16: the planforms, and η and F̄_a of each planform, one series per method."""
     views = {m: view(plan, rows, m) for m in plan.methods}
 
@@ -136,13 +133,6 @@ def _label(method: str, planform: str) -> str:
     return f"{figures.method_label(method)}, {planform} wing"
 
 
-def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], stat: str) -> float:
-    """Share of the common conditions where the real wing's statistic beats the tear-drop's."""
-    pairs = [(getattr(real[c], stat), getattr(tear[c], stat)) for c in real if c in tear]
-    pairs = [(a, b) for a, b in pairs if math.isfinite(a) and math.isfinite(b)]
-    return math.nan if not pairs else float(np.mean([a > b for a, b in pairs]))
-
-
 Planforms = Mapping[str, Mapping[str, Mapping[float, Spread]]]
 
 
@@ -157,12 +147,16 @@ def view(plan: StudyPlan, rows: Rows, method: str) -> Planforms:
 
 
 def wins(quantity: str) -> C.Measure:
-    """``compare``: the share of conditions where the real wing's ``quantity`` beats the
-    tear-drop's (the claim: 1)."""
+    """``compare``: the share of the common conditions where the real wing's ``quantity`` (its
+    median, its best seed) beats the tear-drop's (the claim: 1)."""
 
     def measure(by: Planforms, _: Any) -> C.Stats:
-        real, tear = by[quantity]["real"], by[quantity]["tear-drop"]
-        return {k: _share_better(real, tear, k) for k in ("median", "best")}
+        real, tear, out = by[quantity]["real"], by[quantity]["tear-drop"], {}
+        for k in ("median", "best"):
+            pairs = [(getattr(real[c], k), getattr(tear[c], k)) for c in real if c in tear]
+            pairs = [(a, b) for a, b in pairs if math.isfinite(a) and math.isfinite(b)]
+            out[k] = math.nan if not pairs else float(np.mean([a > b for a, b in pairs]))
+        return out
 
     return measure
 

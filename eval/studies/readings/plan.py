@@ -10,7 +10,6 @@ import os
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 from agents import jobs as agents_jobs
 from agents.jobs import Job
@@ -22,6 +21,7 @@ from eval.studies.claims import Claim, VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
 from eval.studies.power import EXCESS_UNIT
 from eval.studies.presets import is_int, is_number
+from eval.studies.tables import Row
 
 NAME = "readings"
 TITLE = "Readings of the paper against its claims"
@@ -332,9 +332,7 @@ def check_jobs(
     return list(dict.fromkeys(pairs))
 
 
-def full_tasks(
-    summary: Sequence[Mapping[str, Any]], continuation: Continuation
-) -> dict[str, dict[str, str]]:
+def full_tasks(summary: Sequence[Row], continuation: Continuation) -> dict[str, dict[str, str]]:
     """reading -> task -> why its jobs run in full: the bias check (:func:`check_summary`
     rows) found them short by more than ``full_median`` or ``full_lowest``, or a continued
     optimum infeasible where the full run's is feasible."""

@@ -21,6 +21,7 @@ from matplotlib.patches import Patch, Rectangle
 from eval.figures import PALETTE, legend, save
 from eval.studies import report as study_report
 from eval.studies.readings.plan import COUNTS, HEADLINES, ReadingResult
+from eval.studies.tables import Row
 from tandem_env.io.files import write_text_atomic
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
@@ -169,9 +170,7 @@ def _continuation_section(
     return [*lines, *(check_table(check, full) if check else none), ""]
 
 
-def check_table(
-    check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
-) -> list[str]:
+def check_table(check: Sequence[Row], full: Mapping[str, Mapping[str, str]]) -> list[str]:
     """The bias check as a Markdown table, one row per reading and task with whether it ran in
     full and why, the overall row in bold."""
 

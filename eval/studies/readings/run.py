@@ -68,19 +68,11 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         both = [r for r in members if r["feasible_full"] and r["feasible_continued"]]
         values = [float(r["difference"]) for r in both]
         lost = sum(bool(r["feasible_full"]) and not r["feasible_continued"] for r in members)
-        out.append(
-            {
-                "reading": reading,
-                "task": task,
-                "pairs": len(values),
-                "median": statistics.median(values) if values else math.nan,
-                "lowest": min(values, default=math.nan),
-                "highest": max(values, default=math.nan),
-                "within_0.5%": sum(v >= -0.005 for v in values),
-                "infeasible": len(members) - len(values),
-                "infeasible_continued": lost,
-            }
-        )
+        row = {"reading": reading, "task": task, "pairs": len(values)}
+        row["median"] = statistics.median(values) if values else math.nan
+        row |= {"lowest": min(values, default=math.nan), "highest": max(values, default=math.nan)}
+        row["within_0.5%"] = sum(v >= -0.005 for v in values)
+        out.append({**row, "infeasible": len(members) - len(values), "infeasible_continued": lost})
     return out
 
 
