@@ -19,7 +19,7 @@ import numpy as np
 from scipy.stats import spearmanr
 
 from eval.studies.presets import fail
-from eval.studies.tables import Rows, Spread, pinned, spread, table4_bounds
+from eval.studies.tables import Rows, Spread, Sweep, pinned, spread, table4_bounds
 from tandem_env import ModelOptions
 
 Verdict = Literal["agrees", "differs", "undecided", "not identifiable", "not run", "no data"]
@@ -298,7 +298,7 @@ def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
 
 
 def trend_stats(
-    series: Mapping[float, Spread], direction: int, against: Mapping | None = None, **fields: Any
+    series: Sweep, direction: int, against: Sweep | None = None, **fields: Any
 ) -> dict[str, Any]:
     """ρ between the condition and the medians (and the best seeds), the medians' monotonic
     fraction (share of steps in the condition's order that move in ``direction``) as the
@@ -343,9 +343,7 @@ def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str,
     }
 
 
-def location_stats(
-    series: Mapping[float, Spread], kind: Literal["min", "max"], **fields: Any
-) -> dict[str, Any]:
+def location_stats(series: Sweep, kind: Literal["min", "max"], **fields: Any) -> dict[str, Any]:
     """The condition [m/s] of the extremum of the medians (and of the best seeds)."""
 
     def where(values: list[float]) -> float:

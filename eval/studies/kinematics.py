@@ -103,8 +103,7 @@ def traces(records: Records, rows: Rows, **where: Any) -> list[kf.Trace]:
 
 def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 9-13 of the first method's strokes, each seed's."""
-    p = plan.preset
-    method = plan.methods[0]
+    p, method = plan.preset, plan.methods[0]
     level, accel = _series(plan, method)
     lv = traces(records, rows, condition=p.kinematics_speed, **level)
     ac = traces(records, rows, condition=p.kinematics_power, **accel)

@@ -16,7 +16,7 @@ from agents.jobs import Job
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Analysis, Drawn, Records, StudyPlan
-from eval.studies.tables import Rows, Spread, by_condition, select, spread
+from eval.studies.tables import Rows, Sweep, by_condition, select, spread
 
 NAME = "power"
 TITLE = "Accelerating flight: power sweep (Figs. 7-8)"
@@ -52,7 +52,7 @@ def series_jobs(plan: StudyPlan, powers: tuple[float, ...], planform: str) -> li
 
 def excess(
     rows: Rows, method: str, planform: str, axis: str, horizontal: str = "horizontal"
-) -> dict[float, Spread]:
+) -> Sweep:
     """F̄_v (axis "vertical") or F̄_h ("horizontal": the reading's objective ``horizontal``) per
     power [-], the objective value of its own optimisation."""
     objective = horizontal if axis == "horizontal" else axis
@@ -60,11 +60,9 @@ def excess(
     return by_condition(rows, "objective_value", **where)
 
 
-def attainable(
-    rows: Rows, method: str, planform: str, horizontal: str = "horizontal"
-) -> dict[float, Spread]:
+def attainable(rows: Rows, method: str, planform: str, horizontal: str = "horizontal") -> Sweep:
     """F̄_a per power from each seed's feasible vertical and horizontal optima."""
-    out: dict[float, Spread] = {}
+    out: Sweep = {}
     vertical = excess(rows, method, planform, "vertical")
     horizontal_series = excess(rows, method, planform, "horizontal", horizontal)
     for power in sorted(set(vertical) & set(horizontal_series)):
@@ -120,7 +118,7 @@ def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Draw
     return plan.sweep_figures(study_dir, "available power P/m [W/kg]", specs)
 
 
-def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, dict[float, Spread]]:
+def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, Sweep]:
     """What the claims judge: ``method``'s F̄_v, F̄_h and F̄_a over powers (tear-drop)."""
     h_obj = plan.reading.horizontal_objective
     return {
@@ -133,7 +131,7 @@ def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, dict[float, Spre
 def at(force: str, power: float) -> C.Measure:
     """``number``: the ``force`` (a :func:`view` key) at ``power`` [W/kg] over seeds."""
 
-    def measure(series: Mapping[str, Mapping[float, Spread]], _: float) -> C.Stats:
+    def measure(series: Mapping[str, Sweep], _: float) -> C.Stats:
         s = series[force].get(power)
         return {"detail": f"{power:g} W/kg not in this preset"} if s is None else C.spread_stats(s)
 
@@ -145,7 +143,7 @@ def rises(force: str) -> C.Measure:
     return lambda series, sign: C.trend_stats(series[force], sign)
 
 
-def ratio(series: Mapping[str, Mapping[float, Spread]], _: Any) -> C.Stats:
+def ratio(series: Mapping[str, Sweep], _: Any) -> C.Stats:
     """By how much F̄_v exceeds F̄_h [%] over the powers (none when no power has both)."""
     vertical, horizontal = series["vertical"], series["horizontal"]
     common = sorted(set(vertical) & set(horizontal))

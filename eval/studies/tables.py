@@ -211,6 +211,10 @@ class Spread:
         return f"{self.median:.3g} [{self.q25:.3g}, {self.q75:.3g}]"
 
 
+#: One quantity of one series over its conditions: {condition: its spread over seeds}.
+Sweep = dict[float, Spread]
+
+
 def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
     """Median, IQR and best of ``quantity`` over the feasible rows (one per seed); circular
     statistics for the angles of :data:`CIRCULAR`."""
@@ -234,7 +238,7 @@ def select(rows: Iterable[Mapping[str, Any]], **where: Any) -> list[Mapping[str,
     return [r for r in rows if all(r[k] == v for k, v in where.items())]
 
 
-def by_condition(rows: Iterable[Row], quantity: str, **where: Any) -> dict[float, Spread]:
+def by_condition(rows: Iterable[Row], quantity: str, **where: Any) -> Sweep:
     """{condition: Spread} of one series (``where`` picks it), conditions ascending."""
     chosen = select(rows, **where)
     conditions = sorted({float(r["condition"]) for r in chosen})

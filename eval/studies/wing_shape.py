@@ -17,7 +17,7 @@ from eval.studies import claims as C
 from eval.studies.base import Analysis, Drawn, Records, StudyPlan
 from eval.studies.power import PAPER_ATTAINABLE, attainable, excess_label, series_jobs
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, at_best_speed
-from eval.studies.tables import Rows, Spread, by_condition
+from eval.studies.tables import Rows, Sweep, by_condition
 from tandem_env import Dragonfly
 
 NAME = "wing-shape"
@@ -123,7 +123,7 @@ def _paper_gain(rows: Rows, method: str) -> list[tuple[float, float, str]]:
     return [(2.0, at.median * factor, label)]
 
 
-def _efficiency(rows: Rows, method: str, planform: str) -> dict[float, Spread]:
+def _efficiency(rows: Rows, method: str, planform: str) -> Sweep:
     """η [%] over speeds of ``method`` with ``planform``."""
     return by_condition(rows, "efficiency_pct", method=method, task="level", planform=planform)
 
@@ -133,7 +133,7 @@ def _label(method: str, planform: str) -> str:
     return f"{figures.method_label(method)}, {planform} wing"
 
 
-Planforms = Mapping[str, Mapping[str, Mapping[float, Spread]]]
+Planforms = Mapping[str, Mapping[str, Sweep]]
 
 
 def view(plan: StudyPlan, rows: Rows, method: str) -> Planforms:

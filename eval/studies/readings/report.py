@@ -147,9 +147,7 @@ def _continuation_section(
     """The report's account of the continuation, its measured bias and what ran in full."""
     if continuation is None:
         return ["Every reading ran in full (no continuation).", ""]
-    lines = [
-        "## Continuation and its bias",
-        "",
+    text = (
         f"The default reading ran in full; every other single reading's job that differs from "
         f"the default's continued from the default's optimum of the same job: "
         f"{100 * continuation.share:g} % of the budget, {100 * continuation.initial_share:g} % "
@@ -163,11 +161,11 @@ def _continuation_section(
         "reading's task whose check falls short (median below "
         f"{100 * continuation.full_median:+g} %, one pair below "
         f"{100 * continuation.full_lowest:+g} %, or a continued optimum infeasible where the full "
-        "run's is feasible) then ran in full.",
-        "",
-    ]
+        "run's is feasible) then ran in full."
+    )
     none = ["No checked pairs (no single reading besides the default)."]
-    return [*lines, *(check_table(check, full) if check else none), ""]
+    table = check_table(check, full) if check else none
+    return study_report.section("Continuation and its bias", text, "", *table)
 
 
 def check_table(check: Sequence[Row], full: Mapping[str, Mapping[str, str]]) -> list[str]:
