@@ -27,7 +27,7 @@ from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import WARM_SHARE, Preset, distinct, fail, is_name, warm_start
-from eval.studies.tables import Rows, series_conditions, spread_summary_rows, tidy_rows
+from eval.studies.tables import Rows, Sweep, series_conditions, spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
 from tandem_env.envs.reference import ConfigReference
@@ -120,9 +120,7 @@ class StudyPlan:
             for caption, stem, title, panels in specs
         ]
 
-    def series(
-        self, points: Callable[[str], Mapping[float, Any]], **style: Any
-    ) -> list[figures.Series]:
+    def series(self, points: Callable[[str], Sweep], **style: Any) -> list[figures.Series]:
         """One figure series per method of ``points(method)``, named by the method."""
         label = figures.method_label
         return [figures.Series(label(m), points(m), method=m, **style) for m in self.methods]

@@ -197,23 +197,19 @@ class VerdictCount:
         )
 
 
-def _rises(rho: float, direction: int) -> bool:
-    return direction * rho >= TREND_RHO
-
-
 #: How each rule judges a statistic against the claim's target (:attr:`ClaimSpec.target`).
 TESTS: dict[str, Callable[[float, Any], bool]] = {
     "number": lambda v, paper: abs(v - paper) <= RELATIVE_TOLERANCE * abs(paper),
     "range": lambda v, ends: (
         (1 - RELATIVE_TOLERANCE) * ends[0] <= v <= (1 + RELATIVE_TOLERANCE) * ends[1]
     ),
-    "trend": _rises,
-    "follows": _rises,
+    "trend": lambda rho, direction: direction * rho >= TREND_RHO,
     "location": lambda at, paper: abs(at - paper) <= LOCATION_TOLERANCE + 1e-9,
     "angle": lambda v, paper: abs(v - paper) <= ANGLE_TOLERANCE,
     "phase": lambda v, in_phase: (v < IN_PHASE) == in_phase,
     "compare": lambda v, order: {">": operator.gt, "==": operator.eq}[order[0]](v, order[1]),
 }
+TESTS["follows"] = TESTS["trend"]  # a ρ between two quantities, judged as a trend's
 
 
 def judge(value: float, rule: Rule, target: Any) -> bool | None:

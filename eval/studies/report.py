@@ -126,9 +126,8 @@ def claims_data(claims: Sequence[Claim]) -> dict[str, Any]:
     bootstrap, its flips; NaN as null) and its ``cells`` in the paper-vs-ours table, by title."""
     nan = lambda v: None if isinstance(v, float) and math.isnan(v) else v  # noqa: E731
     cells = lambda c: {t: cell(c) for t, cell in CLAIM_COLUMNS}  # noqa: E731
-    return {
-        "claims": [{**{k: nan(v) for k, v in asdict(c).items()}, "cells": cells(c)} for c in claims]
-    }
+    rows = [{**{k: nan(v) for k, v in asdict(c).items()}, "cells": cells(c)} for c in claims]
+    return {"claims": rows}
 
 
 def verdict_summary(claims: Sequence[Claim]) -> list[str]:

@@ -20,15 +20,15 @@ from agents.harness import prepare_job
 from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
-from agents.records import Record
 from agents.runner import Lookup, PlanRun, job_records, run_plan
 from agents.store import RECORDS_DIR, RecordStore
 from eval.studies import PAPER_STUDIES, report
-from eval.studies.base import StudyPlan
+from eval.studies.base import Records, StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
 from eval.studies.readings import plan as rp
 from eval.studies.readings.report import matrix_figure, write_readings_report
+from eval.studies.tables import Rows
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
 #: The columns of continuation_check.csv, in order.
@@ -38,9 +38,7 @@ CHECK_COLUMNS: tuple[str, ...] = tuple(
 )
 
 
-def check_rows(
-    records: Mapping[Job, Record], checks: Sequence[tuple[Reading, Job, Job]]
-) -> list[dict[str, Any]]:
+def check_rows(records: Records, checks: Sequence[tuple[Reading, Job, Job]]) -> Rows:
     """One row per checked pair: the continued and the full optimum (``difference`` =
     (continued − full) / |full| [-]) and which part the continued run reported."""
     rows = []
