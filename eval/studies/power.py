@@ -72,11 +72,8 @@ def attainable(rows: Rows, method: str, planform: str, horizontal: str = "horizo
             for o in ("vertical", horizontal)
         )
         both = sorted(s for s in v.keys() & h.keys() if v[s]["feasible"] and h[s]["feasible"])
-        fa = [math.hypot(v[s]["objective_value"], h[s]["objective_value"]) for s in both]
-        pairs = [
-            {"seed": s, "feasible": True, "objective_value": f, "F_a": f}
-            for s, f in zip(both, fa, strict=True)
-        ]
+        fa = {s: math.hypot(v[s]["objective_value"], h[s]["objective_value"]) for s in both}
+        pairs = [dict(seed=s, feasible=True, objective_value=f, F_a=f) for s, f in fa.items()]
         best = math.hypot(vertical[power].best, horizontal_series[power].best)
         out[power] = replace(spread(pairs, "F_a"), best=best, best_seed=None, n=len(v))
     return out
