@@ -385,8 +385,7 @@ def with_confidence(
     claims = claims_of([dict(r) for r in rows])
     if not claims or resamples <= 0:
         return claims
-    strata = _strata(rows)
-    rng = np.random.default_rng(seed)
+    strata, rng = _strata(rows), np.random.default_rng(seed)
     flips = {c.id: np.zeros(2) for c in claims}
     for _ in range(resamples):
         again = {c.id: c for c in claims_of(resample(strata, rng))}

@@ -188,8 +188,7 @@ class Reading:
         for key in (k for k, _ in pairs if k not in DECISION_OPTIONS):
             _fail(self.name, "options", key, f"ModelOptions fields that are {DECISIONS}")
         object.__setattr__(self, "options", pairs)
-        c_r = self.rotational_coefficient
-        if c_r is not None and not (is_number(c_r) and c_r >= 0):
+        if (c_r := self.rotational_coefficient) is not None and not (is_number(c_r) and c_r >= 0):
             _fail(self.name, "rotational_coefficient", c_r, "None or a finite number >= 0")
         if (objective := self.horizontal_objective) not in HORIZONTAL_OBJECTIVES:
             allowed = ", ".join(map(repr, HORIZONTAL_OBJECTIVES))
@@ -212,8 +211,7 @@ class Reading:
         """What differs from the documented default, e.g. ``{"thrust_split": "body"}``."""
         default = ModelOptions()
         out = {k: v for k, v in self.options if getattr(default, k) != v}
-        c_r = self.rotational_coefficient
-        if c_r is not None and c_r != DEFAULT_ROTATIONAL:
+        if (c_r := self.rotational_coefficient) is not None and c_r != DEFAULT_ROTATIONAL:
             out["rotational_coefficient"] = float(c_r)
         if self.horizontal_objective != "horizontal":
             out["horizontal_objective"] = self.horizontal_objective

@@ -164,8 +164,7 @@ def insect_line(plan: StudyPlan) -> str:
 
 
 def settings_lines(plan: StudyPlan) -> list[str]:
-    p = plan.preset
-    search = plan.reading.search
+    p, search = plan.preset, plan.reading.search
     if search is None:
         batch = f"; PSO swarm {p.swarm_size}" if "pso" in plan.methods else ""
     else:  # the reading's search replaces the preset's method, budgets and batch

@@ -362,8 +362,7 @@ def combinations(
     chosen: list[ReadingResult] = []
     skipped: list[str] = []
     for candidate in gainers:
-        clash = [c.reading.name for c in chosen if candidate.reading.conflicts(c.reading)]
-        if clash:
+        if clash := [c.reading.name for c in chosen if candidate.reading.conflicts(c.reading)]:
             skipped.append(f"{candidate.reading.name} (conflicts with {', '.join(clash)})")
         else:
             chosen.append(candidate)

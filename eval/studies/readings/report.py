@@ -216,8 +216,7 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
     fig, ax = plt.subplots(figsize=(3.6 + 0.42 * n_cols, 1.6 + 0.24 * n_rows))
     cmap = ListedColormap([color for color, _, _ in VERDICT_STYLE.values()])
     ax.imshow(grid, cmap=cmap, vmin=0, vmax=len(_CODE) - 1, aspect="auto", interpolation="nearest")
-    styles = list(VERDICT_STYLE.values())
-    reference = columns[0][1]
+    styles, reference = list(VERDICT_STYLE.values()), columns[0][1]
     for j, (_, verdicts) in enumerate(columns):
         for i in range(n_rows):
             _, glyph, ink = styles[grid[i][j]]

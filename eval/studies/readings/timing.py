@@ -64,9 +64,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         )
     ordered = [d for _, d in sorted(durations, key=lambda x: -x[0])]
     cells = ", ".join(f"{w} workers {makespan(ordered, w) / 3600:.1f} h" for w in WORKERS)
-    print(
-        f"{args.preset}: {len(ordered)} jobs, {sum(ordered) / 3600:.1f} h serial; at best {cells}"
-    )
+    total = f"{len(ordered)} jobs, {sum(ordered) / 3600:.1f} h serial"
+    print(f"{args.preset}: {total}; at best {cells}")
 
 
 if __name__ == "__main__":
