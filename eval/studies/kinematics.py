@@ -110,8 +110,7 @@ def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Draw
     level_name = f"level flight, V = {p.kinematics_speed:g} m/s"
     accel_name = f"accelerating ({p.kinematics_objective}), {p.kinematics_power:g} W/kg"
     judged = view(plan, rows, method)
-    level_at = f"level {p.kinematics_speed:g} m/s"
-    accel_at = f"accel. {p.kinematics_power:g} W/kg"
+    level_at, accel_at = f"level {p.kinematics_speed:g} m/s", f"accel. {p.kinematics_power:g} W/kg"
     lead_at = f"level {p.phase_speed:g} m/s"
 
     def panel(title: str, groups: dict[str, Spread], ylabel: str, **marks: Any) -> kf.GroupPanel:
@@ -226,7 +225,7 @@ def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any
     return level, dict(level, task="accelerate", objective=objective)
 
 
-def phase_of(key: str, cid: str) -> C.Measure:
+def lag(key: str, cid: str) -> C.Measure:
     """``phase`` or ``angle``: the spread of ``key`` (a :func:`view` key) [deg], about the
     fore/hind phase of claim ``cid``'s optimisations."""
     return lambda by, _: C.spread_stats(by[key], unit="deg", depends_on=by["phase"][cid])
@@ -252,13 +251,9 @@ LEVEL = "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out o
 LEADS = "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)"
 ACCEL = "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
-    C.ClaimSpec(
-        "K1", "Fig. 11a", LEVEL, "out of phase", "phase", False, phase_of("level |ΔΦ|", "K1")
-    ),
-    C.ClaimSpec(
-        "K2", "Fig. 11", LEADS, "+30°", "angle", PAPER_PHASE_LEAD, phase_of("ΔΦ", "K2"), NOISY
-    ),
-    C.ClaimSpec("K3", "Fig. 11b", ACCEL, "in phase", "phase", True, phase_of("accel |ΔΦ|", "K3")),
+    C.ClaimSpec("K1", "Fig. 11a", LEVEL, "out of phase", "phase", False, lag("level |ΔΦ|", "K1")),
+    C.ClaimSpec("K2", "Fig. 11", LEADS, "+30°", "angle", PAPER_PHASE_LEAD, lag("ΔΦ", "K2"), NOISY),
+    C.ClaimSpec("K3", "Fig. 11b", ACCEL, "in phase", "phase", True, lag("accel |ΔΦ|", "K3")),
     C.ClaimSpec("K4", "Fig. 12c", PITCH, "η_m,acc > η_m,level", "compare", (">", 0), pitch_gain),
 )
 

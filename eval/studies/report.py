@@ -237,14 +237,13 @@ def write_report(
 def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """The parameters pinned at a Table 4 bound, one line per parameter and bound (Markdown)."""
     found = pinned_parameters(rows)
-    lines = [
-        *section("Parameters pinned at Table 4 bounds")[:-1],
+    text = (
         f"A parameter is pinned at a condition when more than {PINNED_SHARE:.0%} of the feasible "
         f"seeds put it within {BOUND_TOLERANCE:.0%} of its Table 4 range of a bound "
         "(`pinned` in the summary CSVs, `at_bounds` per seed in the tidy CSVs); a bound the "
-        "optimum presses against is a limit of Table 4, not of the flyer.",
-        "",
-    ]
+        "optimum presses against is a limit of Table 4, not of the flyer."
+    )
+    lines = section("Parameters pinned at Table 4 bounds", text)
     places: dict[tuple[str, str, float], dict[tuple[str, str], list[str]]] = {}
     for r in sorted(found, key=lambda r: (PARAMETER_NAMES.index(r["parameter"]), r["bound"])):
         series = f"{r['task']} {r['objective']}, {r['planform']} ({r['method']})"

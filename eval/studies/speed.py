@@ -108,9 +108,8 @@ def extremum(quantity: str, kind: str) -> C.Measure:
 
 def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
     """The highest median η over speeds against the paper's 12.7 % (Fig. 6)."""
-    finite = {
-        v: s for v, s in by_condition(rows, "efficiency_pct").items() if not math.isnan(s.median)
-    }
+    by_speed = by_condition(rows, "efficiency_pct")
+    finite = {v: s for v, s in by_speed.items() if not math.isnan(s.median)}
     if not finite:
         return dict(statement="peak level-flight efficiency", detail="no feasible seed", note="")
     peak_speed = max(finite, key=lambda v: finite[v].median)
@@ -127,6 +126,7 @@ def at_best_speed(cid: str, fig: str, what: str, measure: C.Measure, note: str =
 FOLLOWS, P = "follows the power trend", "power_per_mass"
 LOWEST = "power P/m is lowest at V = 1.5 m/s"
 PEAK = "peak level-flight efficiency (≈ 13 % flight-muscle efficiency)"
+PEAKS = "efficiency peaks at V = 1.5 m/s"
 NOT_P = "η, not P, is maximised: P/m at the η-optimum need not be the minimum power."
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     *(
@@ -148,9 +148,7 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
     C.ClaimSpec(
         "S7", "Fig. 6", PEAK, "12.7 %", "number", PAPER_PEAK_EFFICIENCY, peak_efficiency, SIGN_NOTE
     ),
-    at_best_speed(
-        "S8", "Fig. 6", "efficiency peaks at V = 1.5 m/s", extremum("efficiency_pct", "max")
-    ),
+    at_best_speed("S8", "Fig. 6", PEAKS, extremum("efficiency_pct", "max")),
 )
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

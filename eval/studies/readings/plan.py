@@ -227,26 +227,25 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
 def reading_by_name(name: str) -> Reading:
     """The reading ``name``: a single (:data:`SINGLES`), an alias (:data:`ALIASES`) or these
     joined by ``+`` (their combination, e.g. ``paper+body``); ValueError naming what is allowed."""
-    given = name
     known = {r.name: r for r in SINGLES}
     allowed = f"{', '.join([*ALIASES, *known])}, or these joined by '+'"
     if not isinstance(name, str) or not name.strip("+ "):
-        raise ValueError(f"reading {given!r}: no name; allowed: {allowed}")
+        raise ValueError(f"reading {name!r}: no name; allowed: {allowed}")
     # Each part is a single or an alias, which stands for its singles.
     parts = [single for part in name.split("+") for single in ALIASES.get(part, part).split("+")]
     if unknown := [part for part in name.split("+") if part not in known and part not in ALIASES]:
         raise ValueError(
-            f"reading {given!r}: unknown {', '.join(map(repr, unknown))}; allowed: {allowed}"
+            f"reading {name!r}: unknown {', '.join(map(repr, unknown))}; allowed: {allowed}"
         )
-    name = "+".join(parts)
+    joined = "+".join(parts)
     if len(parts) == 1:
-        return known[name]
+        return known[joined]
     if len(set(parts)) != len(parts) or DEFAULT.name in parts:
         raise ValueError(
-            f"reading {given!r} is {name!r}; allowed: distinct singles other than the default "
+            f"reading {name!r} is {joined!r}; allowed: distinct singles other than the default "
             f"({allowed})"
         )
-    return combine([known[part] for part in parts], name)
+    return combine([known[part] for part in parts], joined)
 
 
 def reading_jobs(plan: StudyPlan, reading: Reading) -> list[Job]:

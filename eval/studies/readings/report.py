@@ -45,16 +45,14 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
     """One line per claim whose verdict differs from the default's, with the statistic before
     and after (``*``: each median inside the other's inter-quartile range)."""
     mine = {c.id: c for c in other.claims}
+    inside = lambda a, b: b.q25 <= a.median <= b.q75  # noqa: E731  (a's median in b's IQR)
     lines = []
     for before in default.claims:
         after = mine.get(before.id)
         if after is None or after.verdict == before.verdict:
             continue
         sign = "+" if after.verdict == "agrees" else ("−" if before.verdict == "agrees" else "·")
-        inside = (
-            before.q25 <= after.median <= before.q75 and after.q25 <= before.median <= after.q75
-        )
-        noise = "*" if inside else ""
+        noise = "*" if inside(after, before) and inside(before, after) else ""
         lines.append(
             f"{sign}{before.id}{noise} ({before.verdict} → {after.verdict}: "
             f"{_num(before.median)} → {_num(after.median)} {after.unit})".replace(" )", ")")
@@ -223,10 +221,7 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
             ax.text(j, i, glyph, ha="center", va="center", fontsize=6.5, color=ink)
             if j and verdicts[i] != reference[i]:
                 ax.add_patch(Rectangle((j - 0.45, i - 0.42), 0.9, 0.84, **FRAME))
-    labels = [
-        f"{name} ({verdicts.count('agrees')} ✓, {verdicts.count('undecided')} ?)"
-        for name, verdicts in columns
-    ]
+    labels = [f"{name} ({v.count('agrees')} ✓, {v.count('undecided')} ?)" for name, v in columns]
     ax.set_xticks(range(n_cols), labels, rotation=60, ha="right", fontsize=7)
     clip = lambda s: s if len(s) <= 38 else s[:37] + "…"  # noqa: E731
     ax.set_yticks(range(n_rows), [f"{c.id}  {clip(c.statement)}" for c in claims], fontsize=6.5)

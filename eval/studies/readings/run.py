@@ -238,9 +238,7 @@ class ReadingsPlan:
             "phases": [{"name": name, **r.to_dict()} for name, r in run.runs.items()],
             "wall_time_s": round(run.wall_time, 1),
         }
-        claims = [
-            {k: getattr(c, k) for k in ("id", "statement", "paper")} for c in results[0].claims
-        ]
+        claims = [dict(id=c.id, statement=c.statement, paper=c.paper) for c in results[0].claims]
         readings = [
             {"name": r.reading.name, "changes": r.reading.changes(), "agree": r.agree}
             | {"verdicts": r.verdicts()}
