@@ -3,8 +3,7 @@ the analysis (:class:`Analysis`).
 
 A study module defines ``NAME``, ``TITLE``, ``jobs(plan) -> list[Job]`` and
 ``analyse(plan, records, out_dir) -> StudyOutput`` (the paper's studies: an :class:`Analysis`
-of their figures and claims); jobs two studies share run once.
-"""
+of their figures and claims); jobs two studies share run once."""
 
 from __future__ import annotations
 
@@ -28,7 +27,7 @@ from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import WARM_SHARE, Preset, distinct, fail, is_name, warm_start
-from eval.studies.tables import Rows, series_conditions, spread_summary_rows, tidy_rows
+from eval.studies.tables import Rows, Sweep, series_conditions, spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
 from tandem_env.envs.reference import ConfigReference
@@ -104,9 +103,8 @@ class StudyPlan:
     def model_options(self) -> ModelOptions:
         """The model options of every job: the preset's and the reading's env keywords."""
         kwargs = {**dict(self.preset.env_kwargs), **self.reading.env_kwargs()}
-        return ModelOptions(
-            **{MODEL_OPTION_KWARGS[k]: v for k, v in kwargs.items() if k in MODEL_OPTION_KWARGS}
-        )
+        options = {MODEL_OPTION_KWARGS[k]: v for k, v in kwargs.items() if k in MODEL_OPTION_KWARGS}
+        return ModelOptions(**options)
 
     def figure(self, folder: Path, stem: str) -> Path:
         """The path of the figure ``stem`` in ``folder``, in the plan's format."""
@@ -114,7 +112,7 @@ class StudyPlan:
 
     def sweep_figures(
         self, folder: Path, xlabel: str, specs: Sequence[tuple[str, str, str, list[figures.Panel]]]
-    ) -> list[tuple[str, Path]]:
+    ) -> Drawn:
         """(caption, path) of each sweep figure ``(caption, stem, title, panels)`` of ``specs``
         over the condition axis ``xlabel``, drawn into ``folder`` in the plan's format."""
         return [
@@ -122,9 +120,7 @@ class StudyPlan:
             for caption, stem, title, panels in specs
         ]
 
-    def series(
-        self, points: Callable[[str], Mapping[float, Any]], **style: Any
-    ) -> list[figures.Series]:
+    def series(self, points: Callable[[str], Sweep], **style: Any) -> list[figures.Series]:
         """One figure series per method of ``points(method)``, named by the method."""
         label = figures.method_label
         return [figures.Series(label(m), points(m), method=m, **style) for m in self.methods]
@@ -250,7 +246,7 @@ class StudyOutput:
     name: str
     title: str
     rows: Rows
-    figures: list[tuple[str, Path]]
+    figures: Drawn
     """(caption, path) of each figure."""
     claims: list[Claim]
     files: list[Path] = field(default_factory=list)
@@ -258,20 +254,13 @@ class StudyOutput:
 
 
 def write_tables(
-    name: str, records: Mapping[Job, Record], out_dir: Path, quantities: Sequence[str]
+    name: str, records: Records, out_dir: Path, quantities: Sequence[str]
 ) -> tuple[Rows, list[Path]]:
     """Write ``DIR/<name>/records.json`` (the index), ``<name>.csv`` (tidy rows) and
     ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters)."""
     rows = tidy_rows(records)
-    index = [
-        {
-            "key": job.key,
-            "file": f"../{RECORDS_DIR}/{job.key}.json",
-            "label": job.label(),
-            "job": job.to_dict(),
-        }
-        for job in sorted(records, key=lambda j: j.label())
-    ]
+    entry = lambda j: {"key": j.key, "file": f"../{RECORDS_DIR}/{j.key}.json", "label": j.label()}  # noqa: E731
+    index = [{**entry(job), "job": job.to_dict()} for job in sorted(records, key=Job.label)]
     paths = [out_dir / name / f for f in (INDEX_FILE, f"{name}.csv", f"{name}_summary.csv")]
     write_json_atomic(paths[0], index)
     write_csv_atomic(paths[1], rows)
@@ -280,8 +269,12 @@ def write_tables(
     return rows, paths
 
 
-#: A study's figures from its plan, tidy rows, records and folder: (caption, path) of each.
-Figures = Callable[[StudyPlan, Rows, Mapping[Job, Record], Path], list[tuple[str, Path]]]
+#: A study's records by job.
+Records = Mapping[Job, Record]
+#: (caption, path) of each figure a study drew.
+Drawn = list[tuple[str, Path]]
+#: A study's figures from its plan, tidy rows, records and folder.
+Figures = Callable[[StudyPlan, Rows, Records, Path], Drawn]
 
 
 @dataclass(frozen=True)
@@ -297,9 +290,7 @@ class Analysis:
     claims: tuple[ClaimSpec, ...]
     view: Callable[[StudyPlan, Rows, str], Any]
 
-    def __call__(
-        self, plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path
-    ) -> StudyOutput:
+    def __call__(self, plan: StudyPlan, records: Records, out_dir: Path) -> StudyOutput:
         rows, files = write_tables(self.name, records, out_dir, self.quantities)
         figures = self.figures(plan, rows, records, out_dir / self.name)
         return StudyOutput(self.name, self.title, rows, figures, self.judge(plan, rows), files)

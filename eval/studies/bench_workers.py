@@ -4,8 +4,7 @@
 
 Runs ``study all``'s optimisations for the preset serially and on ``--scheduler`` (alternating,
 ``--repeat`` times) and prints the wall times, the job lengths and the best speed-up W workers
-can give (:func:`makespan`), measured and estimated for every preset (docs/scaling.md).
-"""
+can give (:func:`makespan`), measured and estimated for every preset (docs/scaling.md)."""
 
 from __future__ import annotations
 
@@ -62,8 +61,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--scheduler", default="local:2", type=parse_scheduler)
     parser.add_argument("--repeat", type=int, default=1, help="runs of each mode (alternating)")
     args = parser.parse_args(argv)
-    plan = StudyPlan(get_preset(args.preset))
-    jobs = _suite_jobs(plan)
+    jobs = _suite_jobs(StudyPlan(get_preset(args.preset)))
     evaluations = sum(j.budget for j in jobs)
     print(f"preset {args.preset}: {len(jobs)} optimisations, {evaluations} evaluations")
     serial = None

@@ -4,8 +4,7 @@ Each study declares its claims once, as data (a ``CLAIMS`` table of :class:`Clai
 module judges and formats them all (:func:`judged`, :data:`TESTS`). Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
 best seed (what the paper's "best of N runs" gives); a verdict the bootstrap over seeds flips
 is undecided (:data:`CONFIDENCE_RULE`), and a claim about what the model does not depend on is
-not identifiable (:data:`IDENTIFIABILITY_RULE`).
-"""
+not identifiable (:data:`IDENTIFIABILITY_RULE`)."""
 
 from __future__ import annotations
 
@@ -20,7 +19,7 @@ import numpy as np
 from scipy.stats import spearmanr
 
 from eval.studies.presets import fail
-from eval.studies.tables import Rows, Spread, pinned, spread, table4_bounds
+from eval.studies.tables import Rows, Spread, Sweep, pinned, spread, table4_bounds
 from tandem_env import ModelOptions
 
 Verdict = Literal["agrees", "differs", "undecided", "not identifiable", "not run", "no data"]
@@ -120,7 +119,7 @@ class Claim:
     """The same statistic from each condition's best seed."""
     unit: str = ""
     verdict: Verdict = "no data"
-    """On the median, after the bootstrap (:func:`decide`)."""
+    """On the median, after the bootstrap (:func:`_settled`)."""
     best_verdict: Verdict = "no data"
     """On the best seed, after the bootstrap."""
     leaning: Verdict | None = None
@@ -170,12 +169,6 @@ class Claim:
         return "–" if math.isnan(self.best) else f"{self.best:.3g} {self.unit}".strip()
 
 
-def decide(leaning: Verdict, flips: float) -> Verdict:
-    """The confidence rule: a decided verdict that flips in more than :data:`FLIP_THRESHOLD`
-    of the resamples is ``"undecided"``; any other stays as it is."""
-    return "undecided" if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD else leaning
-
-
 @dataclass(frozen=True)
 class VerdictCount:
     """How many claims agree, differ, are undecided, not identifiable or without a verdict."""
@@ -186,9 +179,7 @@ class VerdictCount:
     no_data: int
     not_identifiable: int = 0
 
-    @property
-    def decided(self) -> int:
-        return self.agree + self.differ
+    decided = property(lambda self: self.agree + self.differ, doc="Claims that agree or differ.")
 
     @classmethod
     def of(cls, claims: Iterable[Claim], best: bool = False) -> VerdictCount:
@@ -206,30 +197,19 @@ class VerdictCount:
         )
 
 
-def verdict(ok: bool | None) -> Verdict:
-    return "no data" if ok is None else ("agrees" if ok else "differs")
-
-
 #: How each rule judges a statistic against the claim's target (:attr:`ClaimSpec.target`).
-ORDERS: dict[str, Callable[[float, float], bool]] = {">": operator.gt, "==": operator.eq}
-
-
-def _rises(rho: float, direction: int) -> bool:
-    return direction * rho >= TREND_RHO
-
-
 TESTS: dict[str, Callable[[float, Any], bool]] = {
     "number": lambda v, paper: abs(v - paper) <= RELATIVE_TOLERANCE * abs(paper),
     "range": lambda v, ends: (
         (1 - RELATIVE_TOLERANCE) * ends[0] <= v <= (1 + RELATIVE_TOLERANCE) * ends[1]
     ),
-    "trend": _rises,
-    "follows": _rises,
+    "trend": lambda rho, direction: direction * rho >= TREND_RHO,
     "location": lambda at, paper: abs(at - paper) <= LOCATION_TOLERANCE + 1e-9,
     "angle": lambda v, paper: abs(v - paper) <= ANGLE_TOLERANCE,
     "phase": lambda v, in_phase: (v < IN_PHASE) == in_phase,
-    "compare": lambda v, order: ORDERS[order[0]](v, order[1]),
+    "compare": lambda v, order: {">": operator.gt, "==": operator.eq}[order[0]](v, order[1]),
 }
+TESTS["follows"] = TESTS["trend"]  # a ρ between two quantities, judged as a trend's
 
 
 def judge(value: float, rule: Rule, target: Any) -> bool | None:
@@ -270,16 +250,11 @@ class ClaimSpec:
         if fields is None:
             return None
         row = {"statement": self.statement.format_map(words), "note": self.note, **fields}
-        return Claim(
-            id=self.id if index == 0 else f"{self.id}/{method}",
-            study=study,
-            figure=self.figure,
-            paper=self.paper,
-            rule=self.rule,
-            verdict=verdict(judge(row.get("median", math.nan), self.rule, self.target)),
-            best_verdict=verdict(judge(row.get("best", math.nan), self.rule, self.target)),
-            **row,
-        )
+        said: dict[bool | None, Verdict] = {True: "agrees", False: "differs", None: "no data"}
+        ok = lambda k: said[judge(row.get(k, math.nan), self.rule, self.target)]  # noqa: E731
+        cid = self.id if index == 0 else f"{self.id}/{method}"
+        own = {"study": study, "figure": self.figure, "paper": self.paper, "rule": self.rule}
+        return Claim(cid, **own, verdict=ok("median"), best_verdict=ok("best"), **row)
 
 
 def judged(
@@ -310,13 +285,6 @@ def rho(x: Sequence[float], y: Sequence[float]) -> float:
     return float(spearmanr(xa, ya).statistic)
 
 
-def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -> float:
-    """Share of consecutive steps (in x order) that move in ``direction`` (+1 rise, −1 fall)."""
-    xa, ya = _finite(x, y)
-    steps = np.diff(ya[np.argsort(xa)])
-    return math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
-
-
 # --- statistics: what a ClaimSpec's measure gives ----------------------------------------------
 def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
     """One spread over seeds: median, quartiles, best seed and the feasible seeds as the detail
@@ -325,28 +293,21 @@ def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
     return {**stats, "detail": seeds_feasible(s), **fields}
 
 
-def follows_stats(
-    x: Mapping[float, Spread], y: Mapping[float, Spread], **fields: Any
+def trend_stats(
+    series: Sweep, direction: int, against: Sweep | None = None, **fields: Any
 ) -> dict[str, Any]:
-    """ρ between the medians (and the best seeds) of two series at their common conditions."""
-    common = [c for c in x if c in y]
-    r = rho([x[c].median for c in common], [y[c].median for c in common])
-    r_best = rho([x[c].best for c in common], [y[c].best for c in common])
-    return {"median": r, "best": r_best, "unit": "(ρ)", **fields}
-
-
-def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
     """ρ between the condition and the medians (and the best seeds), the medians' monotonic
-    fraction as the detail; ``fields`` override these (:func:`held_at_bound`'s)."""
-    x, medians = list(series), [s.median for s in series.values()]
-    frac = monotonic_fraction(x, medians, direction)
-    return {
-        "median": rho(x, medians),
-        "best": rho(x, [s.best for s in series.values()]),
-        "unit": "(ρ)",
-        "detail": f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else "",
-        **fields,
-    }
+    fraction (share of steps in the condition's order that move in ``direction``) as the
+    detail; with ``against``, ρ between its medians (best seeds) and these at their common
+    conditions, no detail; ``fields`` override these (:func:`held_at_bound`'s)."""
+    common = [c for c in series if against is None or c in against]
+    x = lambda k: common if against is None else [getattr(against[c], k) for c in common]  # noqa: E731
+    stats = {k: rho(x(k), [getattr(series[c], k) for c in common]) for k in ("median", "best")}
+    xa, ya = _finite(common, [series[c].median for c in common])
+    steps = np.diff(ya[np.argsort(xa)])
+    frac = math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
+    detail = "" if against is not None or math.isnan(frac) else f"monotonic fraction {frac:.2f}"
+    return {**stats, "unit": "(ρ)", "detail": detail, **fields}
 
 
 def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str, Any]:
@@ -378,9 +339,7 @@ def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str,
     }
 
 
-def location_stats(
-    series: Mapping[float, Spread], kind: Literal["min", "max"], **fields: Any
-) -> dict[str, Any]:
+def location_stats(series: Sweep, kind: Literal["min", "max"], **fields: Any) -> dict[str, Any]:
     """The condition [m/s] of the extremum of the medians (and of the best seeds)."""
 
     def where(values: list[float]) -> float:
@@ -426,30 +385,30 @@ def with_confidence(
     claims = claims_of([dict(r) for r in rows])
     if not claims or resamples <= 0:
         return claims
-    strata = _strata(rows)
-    rng = np.random.default_rng(seed)
+    strata, rng = _strata(rows), np.random.default_rng(seed)
     flips = {c.id: np.zeros(2) for c in claims}
     for _ in range(resamples):
         again = {c.id: c for c in claims_of(resample(strata, rng))}
         for c in claims:
-            other = again.get(c.id)
-            if other is None:
-                flips[c.id] += 1.0
-            else:
-                flips[c.id] += (other.verdict != c.verdict, other.best_verdict != c.best_verdict)
+            o = again.get(c.id)
+            flips[c.id] += (
+                1.0 if o is None else (o.verdict != c.verdict, o.best_verdict != c.best_verdict)
+            )
     return [_settled(c, *(flips[c.id] / resamples)) for c in claims]
 
 
 def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] = ()) -> Claim:
-    """``c`` with each verdict as run its leaning and the verdict :func:`decide` gives it with
-    its share of flipping resamples (NaN for a verdict without data); ``lacks``: every verdict
-    "not identifiable", without a confidence."""
+    """``c`` with each verdict as run its leaning and its share of flipping resamples (NaN for a
+    verdict without data), the confidence rule deciding the verdict: a decided one that flips in
+    more than :data:`FLIP_THRESHOLD` of them is ``"undecided"``, any other stays; ``lacks``:
+    every verdict "not identifiable", without a confidence."""
     sides = {}
     for side, share in (("", flips), ("best_", best_flips)):
         said: Verdict = "not identifiable" if lacks else getattr(c, f"{side}verdict")
         share = math.nan if lacks or said in ("no data", "not run") else float(share)
+        decided = said in ("agrees", "differs")
         sides |= {
-            f"{side}verdict": decide(said, share),
+            f"{side}verdict": "undecided" if decided and share > FLIP_THRESHOLD else said,
             f"{side}leaning": said,
             f"{side}flips": share,
         }

@@ -22,7 +22,7 @@ from agents.tasks import get_task
 from eval import figures
 from eval import kinematics_figures as kf
 from eval.studies import claims as C
-from eval.studies.base import Analysis, StudyPlan
+from eval.studies.base import Analysis, Drawn, Records, StudyPlan
 from eval.studies.tables import Rows, Spread, circular_median, select, spread, table4_bounds
 from tandem_env import PARAMETER_NAMES, bound_sides, stroke_history
 from tandem_env.envs import registration
@@ -86,7 +86,7 @@ def record_history(record: Record, n_samples: int = HISTORY_SAMPLES):
     )
 
 
-def traces(records: Mapping[Job, Record], rows: Rows, **where: Any) -> list[kf.Trace]:
+def traces(records: Records, rows: Rows, **where: Any) -> list[kf.Trace]:
     """One trace per seed of the series ``where`` picks; the best feasible seed is bold."""
     chosen = select(rows, **where)
     best_seed = spread(chosen, "objective_value").best_seed
@@ -101,33 +101,29 @@ def traces(records: Mapping[Job, Record], rows: Rows, **where: Any) -> list[kf.T
     return out
 
 
-def draw(
-    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
-) -> list[tuple[str, Path]]:
+def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 9-13 of the first method's strokes, each seed's."""
-    p = plan.preset
-    method = plan.methods[0]
+    p, method = plan.preset, plan.methods[0]
     level, accel = _series(plan, method)
     lv = traces(records, rows, condition=p.kinematics_speed, **level)
     ac = traces(records, rows, condition=p.kinematics_power, **accel)
     level_name = f"level flight, V = {p.kinematics_speed:g} m/s"
     accel_name = f"accelerating ({p.kinematics_objective}), {p.kinematics_power:g} W/kg"
     judged = view(plan, rows, method)
-    level_at = f"level {p.kinematics_speed:g} m/s"
-    accel_at = f"accel. {p.kinematics_power:g} W/kg"
+    level_at, accel_at = f"level {p.kinematics_speed:g} m/s", f"accel. {p.kinematics_power:g} W/kg"
     lead_at = f"level {p.phase_speed:g} m/s"
 
     def panel(title: str, groups: dict[str, Spread], ylabel: str, **marks: Any) -> kf.GroupPanel:
         """The feasible seeds' values of each group, as the claims take them, and its best."""
         values = {k: list(s.values) for k, s in groups.items()}
-        return kf.GroupPanel(
-            title, values, ylabel, best={k: s.best for k, s in groups.items()}, **marks
-        )
+        best = {k: s.best for k, s in groups.items()}
+        return kf.GroupPanel(title, values, ylabel, best=best, **marks)
 
     # Each panel shows the statistic its claim judges; not judged where K1-K3 are not
     # identifiable (claims.IDENTIFIABILITY_RULE).
     resolved = plan.model_options.phase_resolved()
     said = "judged" if resolved else "not judged: the model does not depend on ΔΦ"
+    tol = C.ANGLE_TOLERANCE
     phase_panels = (
         panel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
@@ -147,11 +143,7 @@ def draw(
             statistic_label=f"circular median ({said})",
             paper={lead_at: PAPER_PHASE_LEAD},
             paper_label=f"paper: hind leads by ≈ {PAPER_PHASE_LEAD:g}°",
-            band=(
-                PAPER_PHASE_LEAD - C.ANGLE_TOLERANCE,
-                PAPER_PHASE_LEAD + C.ANGLE_TOLERANCE,
-                f"paper ± {C.ANGLE_TOLERANCE:g}° (rule)",
-            ),
+            band=(PAPER_PHASE_LEAD - tol, PAPER_PHASE_LEAD + tol, f"paper ± {tol:g}° (rule)"),
             ylim=(-180.0, 180.0),
         ),
     )
@@ -184,20 +176,15 @@ def draw(
         path = plan.figure(study_dir, f"fig{n}_{stem}")
         figure = kf.cycle_figure(both, key, f"{angle} [deg]", title, path, extras=extras)
         out.append((f"Fig. {n}: {angle} of fore- and hind-wing; {panels}", figure))
-    return [
-        *out,
-        (
-            "Fig. 13: angle of attack and relative speed over the cycle, level flight (a wing "
-            "whose weaving shape K sits at its bound 1 sweeps at a constant rate between "
-            "reversals: its speed steps at each reversal; the legend names it)",
-            kf.flow_figure(
-                lv,
-                f"Fig. 13: flow at the wing, {level_name}",
-                plan.figure(study_dir, "fig13_flow_level"),
-                triangle_note(select(rows, condition=p.kinematics_speed, **level)),
-            ),
-        ),
-    ]
+    note = triangle_note(select(rows, condition=p.kinematics_speed, **level))
+    path = plan.figure(study_dir, "fig13_flow_level")
+    figure = kf.flow_figure(lv, f"Fig. 13: flow at the wing, {level_name}", path, note)
+    caption = (
+        "Fig. 13: angle of attack and relative speed over the cycle, level flight (a wing "
+        "whose weaving shape K sits at its bound 1 sweeps at a constant rate between "
+        "reversals: its speed steps at each reversal; the legend names it)"
+    )
+    return [*out, (caption, figure)]
 
 
 @functools.cache
@@ -205,11 +192,9 @@ def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
     """What K1-K3 are about: the fore/hind phase at their optimisations' flight speeds (once
     per plan: every bootstrap resample asks)."""
     p = plan.preset
-    level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
-    accel = plan.jobs(
-        "accelerate", [p.kinematics_power], objective=p.kinematics_objective, seeds=p.seeds[:1]
-    )
-    speeds = [flight_of(job)[1] for job in (level[0], level[1], accel[0])]
+    jobs = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])[:2]
+    jobs += plan.jobs("accelerate", [p.kinematics_power], objective=p.kinematics_objective)[:1]
+    speeds = [flight_of(job)[1] for job in jobs]
     ids = ("K1", "K2", "K3")
     return {cid: (C.Dependence(C.PHASE, speed),) for cid, speed in zip(ids, speeds, strict=True)}
 
@@ -240,13 +225,13 @@ def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any
     return level, dict(level, task="accelerate", objective=objective)
 
 
-def phase_of(key: str, cid: str) -> C.Measure:
+def lag(key: str, cid: str) -> C.Measure:
     """``phase`` or ``angle``: the spread of ``key`` (a :func:`view` key) [deg], about the
     fore/hind phase of claim ``cid``'s optimisations."""
     return lambda by, _: C.spread_stats(by[key], unit="deg", depends_on=by["phase"][cid])
 
 
-def pitch_larger(by: Mapping[str, Any], _: Any) -> C.Stats:
+def pitch_gain(by: Mapping[str, Any], _: Any) -> C.Stats:
     """``compare``: η_m accelerating − level [deg] of the medians (and of the best seeds)."""
     level, accel = by["level η_m"], by["accel η_m"]
     return {
@@ -266,16 +251,10 @@ LEVEL = "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out o
 LEADS = "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)"
 ACCEL = "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
-    C.ClaimSpec(
-        "K1", "Fig. 11a", LEVEL, "out of phase", "phase", False, phase_of("level |ΔΦ|", "K1")
-    ),
-    C.ClaimSpec(
-        "K2", "Fig. 11", LEADS, "+30°", "angle", PAPER_PHASE_LEAD, phase_of("ΔΦ", "K2"), NOISY
-    ),
-    C.ClaimSpec("K3", "Fig. 11b", ACCEL, "in phase", "phase", True, phase_of("accel |ΔΦ|", "K3")),
-    C.ClaimSpec(
-        "K4", "Fig. 12c", PITCH, "η_m,acc > η_m,level", "compare", (">", 0.0), pitch_larger
-    ),
+    C.ClaimSpec("K1", "Fig. 11a", LEVEL, "out of phase", "phase", False, lag("level |ΔΦ|", "K1")),
+    C.ClaimSpec("K2", "Fig. 11", LEADS, "+30°", "angle", PAPER_PHASE_LEAD, lag("ΔΦ", "K2"), NOISY),
+    C.ClaimSpec("K3", "Fig. 11b", ACCEL, "in phase", "phase", True, lag("accel |ΔΦ|", "K3")),
+    C.ClaimSpec("K4", "Fig. 12c", PITCH, "η_m,acc > η_m,level", "compare", (">", 0), pitch_gain),
 )
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

@@ -5,8 +5,7 @@ power, C_r, spin, hover inflow, C_hf, F̄_h). A :class:`Reading` names one combi
 and changes only the env keywords of the studies' jobs (:meth:`eval.studies.base.StudyPlan.jobs`);
 the default reading changes nothing. The paper does not state its search either (PSO, no swarm
 size or stopping rule): a reading may carry a :class:`Search` that replaces the plan's method and
-budgets (:data:`PAPER_SEARCHES`, docs/efficiency.md).
-"""
+budgets (:data:`PAPER_SEARCHES`, docs/efficiency.md)."""
 
 from __future__ import annotations
 
@@ -189,8 +188,7 @@ class Reading:
         for key in (k for k, _ in pairs if k not in DECISION_OPTIONS):
             _fail(self.name, "options", key, f"ModelOptions fields that are {DECISIONS}")
         object.__setattr__(self, "options", pairs)
-        c_r = self.rotational_coefficient
-        if c_r is not None and not (is_number(c_r) and c_r >= 0):
+        if (c_r := self.rotational_coefficient) is not None and not (is_number(c_r) and c_r >= 0):
             _fail(self.name, "rotational_coefficient", c_r, "None or a finite number >= 0")
         if (objective := self.horizontal_objective) not in HORIZONTAL_OBJECTIVES:
             allowed = ", ".join(map(repr, HORIZONTAL_OBJECTIVES))
@@ -213,8 +211,7 @@ class Reading:
         """What differs from the documented default, e.g. ``{"thrust_split": "body"}``."""
         default = ModelOptions()
         out = {k: v for k, v in self.options if getattr(default, k) != v}
-        c_r = self.rotational_coefficient
-        if c_r is not None and c_r != DEFAULT_ROTATIONAL:
+        if (c_r := self.rotational_coefficient) is not None and c_r != DEFAULT_ROTATIONAL:
             out["rotational_coefficient"] = float(c_r)
         if self.horizontal_objective != "horizontal":
             out["horizontal_objective"] = self.horizontal_objective
@@ -294,10 +291,8 @@ def _paper_search(swarm: int, iterations: int) -> Reading:
 
 #: The paper-era search budgets (an assumption: swarms of 20-40 particles for 50-100 iterations,
 #: the range usual in PSO studies of that time), smallest first; docs/efficiency.md.
-PAPER_SEARCHES: tuple[Reading, ...] = (
-    _paper_search(20, 50),
-    _paper_search(40, 50),
-    _paper_search(40, 100),
+PAPER_SEARCHES: tuple[Reading, ...] = tuple(
+    _paper_search(swarm, iterations) for swarm, iterations in ((20, 50), (40, 50), (40, 100))
 )
 #: The middle of that range: 40 particles (the harness default) × 50 iterations.
 PAPER_SEARCH: Reading = PAPER_SEARCHES[1]

@@ -13,11 +13,10 @@ from typing import Any
 import numpy as np
 
 from agents.jobs import Job
-from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Analysis, StudyPlan
-from eval.studies.tables import Rows, Spread, by_condition, select, spread
+from eval.studies.base import Analysis, Drawn, Records, StudyPlan
+from eval.studies.tables import Rows, Sweep, by_condition, select, spread
 
 NAME = "power"
 TITLE = "Accelerating flight: power sweep (Figs. 7-8)"
@@ -53,7 +52,7 @@ def series_jobs(plan: StudyPlan, powers: tuple[float, ...], planform: str) -> li
 
 def excess(
     rows: Rows, method: str, planform: str, axis: str, horizontal: str = "horizontal"
-) -> dict[float, Spread]:
+) -> Sweep:
     """F̄_v (axis "vertical") or F̄_h ("horizontal": the reading's objective ``horizontal``) per
     power [-], the objective value of its own optimisation."""
     objective = horizontal if axis == "horizontal" else axis
@@ -61,11 +60,9 @@ def excess(
     return by_condition(rows, "objective_value", **where)
 
 
-def attainable(
-    rows: Rows, method: str, planform: str, horizontal: str = "horizontal"
-) -> dict[float, Spread]:
+def attainable(rows: Rows, method: str, planform: str, horizontal: str = "horizontal") -> Sweep:
     """F̄_a per power from each seed's feasible vertical and horizontal optima."""
-    out: dict[float, Spread] = {}
+    out: Sweep = {}
     vertical = excess(rows, method, planform, "vertical")
     horizontal_series = excess(rows, method, planform, "horizontal", horizontal)
     for power in sorted(set(vertical) & set(horizontal_series)):
@@ -75,38 +72,27 @@ def attainable(
             for o in ("vertical", horizontal)
         )
         both = sorted(s for s in v.keys() & h.keys() if v[s]["feasible"] and h[s]["feasible"])
-        fa = [math.hypot(v[s]["objective_value"], h[s]["objective_value"]) for s in both]
-        pairs = [
-            {"seed": s, "feasible": True, "objective_value": f, "F_a": f}
-            for s, f in zip(both, fa, strict=True)
-        ]
+        fa = {s: math.hypot(v[s]["objective_value"], h[s]["objective_value"]) for s in both}
+        pairs = [dict(seed=s, feasible=True, objective_value=f, F_a=f) for s, f in fa.items()]
         best = math.hypot(vertical[power].best, horizontal_series[power].best)
         out[power] = replace(spread(pairs, "F_a"), best=best, best_seed=None, n=len(v))
     return out
 
 
-def paper_attainable(label: str = "") -> list[tuple[float, float] | tuple[float, float, str]]:
-    """The paper's F̄_a (Fig. 8) as figure points, each labelled ``label`` if given."""
-    return [(p, v, label) if label else (p, v) for p, v in PAPER_ATTAINABLE.items()]
-
-
-def draw(
-    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
-) -> list[tuple[str, Path]]:
+def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 7-8: F̄_v and F̄_h, and F̄_a, over powers, one series per method."""
     h_obj = plan.reading.horizontal_objective
     # F̄_v and F̄_h of each method side by side (F̄_h its variant 1: figures.series_style)
+    label = figures.method_label
     forces = [
         figures.Series(
-            f"{name}, {figures.method_label(m)}",
-            excess(rows, m, "tear-drop", axis, h_obj),
-            method=m,
-            variant=k,
+            f"{n}, {label(m)}", excess(rows, m, "tear-drop", a, h_obj), method=m, variant=k
         )
         for m in plan.methods
-        for k, (name, axis) in enumerate((("F̄_v", "vertical"), ("F̄_h", "horizontal")))
+        for k, (n, a) in enumerate((("F̄_v", "vertical"), ("F̄_h", "horizontal")))
     ]
     fa = plan.series(lambda m: attainable(rows, m, "tear-drop", h_obj))
+    attained = list(PAPER_ATTAINABLE.items())  # the paper's F̄_a (Fig. 8)
     paper = [
         (p, v, f"paper {name}")
         for name, d in (("F̄_v", PAPER_VERTICAL), ("F̄_h", PAPER_HORIZONTAL))
@@ -123,13 +109,13 @@ def draw(
             "Fig. 8: attainable specific excess force against available power",
             "fig8_attainable",
             "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
-            [figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable())],
+            [figures.Panel(excess_label("attainable F̄_a"), fa, paper=attained)],
         ),
     )
     return plan.sweep_figures(study_dir, "available power P/m [W/kg]", specs)
 
 
-def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, dict[float, Spread]]:
+def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, Sweep]:
     """What the claims judge: ``method``'s F̄_v, F̄_h and F̄_a over powers (tear-drop)."""
     h_obj = plan.reading.horizontal_objective
     return {
@@ -139,10 +125,10 @@ def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, dict[float, Spre
     }
 
 
-def at_power(force: str, power: float) -> C.Measure:
+def at(force: str, power: float) -> C.Measure:
     """``number``: the ``force`` (a :func:`view` key) at ``power`` [W/kg] over seeds."""
 
-    def measure(series: Mapping[str, Mapping[float, Spread]], _: float) -> C.Stats:
+    def measure(series: Mapping[str, Sweep], _: float) -> C.Stats:
         s = series[force].get(power)
         return {"detail": f"{power:g} W/kg not in this preset"} if s is None else C.spread_stats(s)
 
@@ -154,7 +140,7 @@ def rises(force: str) -> C.Measure:
     return lambda series, sign: C.trend_stats(series[force], sign)
 
 
-def ratio(series: Mapping[str, Mapping[float, Spread]], _: Any) -> C.Stats:
+def ratio(series: Mapping[str, Sweep], _: Any) -> C.Stats:
     """By how much F̄_v exceeds F̄_h [%] over the powers (none when no power has both)."""
     vertical, horizontal = series["vertical"], series["horizontal"]
     common = sorted(set(vertical) & set(horizontal))
@@ -169,19 +155,13 @@ def ratio(series: Mapping[str, Mapping[float, Spread]], _: Any) -> C.Stats:
     return {"median": float(med), "q25": float(q25), "q75": float(q75), "best": best, "unit": "%"}
 
 
-def _at_powers(cid: str, label: str, figure: str, force: str, paper: Mapping[float, float]):
-    """``number`` claims ``cid`` a, b, …: ``label`` at each of the paper's powers."""
+def _at_powers(cid: str, what: str, fig: str, force: str, paper: Mapping[float, float]):
+    """``number`` claims ``cid`` a, b, …: ``what`` at each of the paper's powers."""
     return tuple(
         C.ClaimSpec(
-            f"{cid}{'ab'[k]}",
-            figure,
-            f"{label} at {p:g} W/kg",
-            f"≈ {value:g}",
-            "number",
-            value,
-            at_power(force, p),
+            f"{cid}{'ab'[k]}", fig, f"{what} at {p:g} W/kg", f"≈ {v:g}", "number", v, at(force, p)
         )
-        for k, (p, value) in enumerate(paper.items())
+        for k, (p, v) in enumerate(paper.items())
     )
 
 

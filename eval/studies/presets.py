@@ -92,8 +92,7 @@ class ConvergenceSpec:
 
     Every method compared has the prefix property (a run with budget B is the first B
     evaluations of any longer run with the same seed: agents/cmaes_search.py, agents/pso.py),
-    so one long run per seed gives the best-so-far at every smaller budget.
-    """
+    so one long run per seed gives the best-so-far at every smaller budget."""
 
     budget: int
     """Model evaluations per run [-]."""
@@ -291,18 +290,15 @@ def overridden(preset: Preset, **given: Any) -> Preset:
     for option, value in given.items():
         if value is None:
             continue
-        values = dict.fromkeys(
-            OVERRIDES[option], tuple(value) if isinstance(value, list) else value
-        )
+        listed = isinstance(value, list)
+        shown = " ".join(f"{v:g}" for v in value) if listed else f"{value}"
+        values = dict.fromkeys(OVERRIDES[option], tuple(value) if listed else value)
         try:
-            if "convergence.seeds" in values:
-                values["convergence"] = replace(
-                    preset.convergence, seeds=values.pop("convergence.seeds")
-                )
+            if (seeds := values.pop("convergence.seeds", None)) is not None:
+                values["convergence"] = replace(preset.convergence, seeds=seeds)
             preset = replace(preset, **values)
         except ValueError as error:
             raise ValueError(f"--{option}: {error}") from None
-        shown = " ".join(f"{v:g}" for v in value) if isinstance(value, list) else f"{value}"
         changed.append(f"--{option} {shown}")
     changes = f"{preset.description}; changed on the command line: {', '.join(changed)}"
     return replace(preset, description=changes) if changed else preset

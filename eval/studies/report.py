@@ -126,9 +126,8 @@ def claims_data(claims: Sequence[Claim]) -> dict[str, Any]:
     bootstrap, its flips; NaN as null) and its ``cells`` in the paper-vs-ours table, by title."""
     nan = lambda v: None if isinstance(v, float) and math.isnan(v) else v  # noqa: E731
     cells = lambda c: {t: cell(c) for t, cell in CLAIM_COLUMNS}  # noqa: E731
-    return {
-        "claims": [{**{k: nan(v) for k, v in asdict(c).items()}, "cells": cells(c)} for c in claims]
-    }
+    rows = [{**{k: nan(v) for k, v in asdict(c).items()}, "cells": cells(c)} for c in claims]
+    return {"claims": rows}
 
 
 def verdict_summary(claims: Sequence[Claim]) -> list[str]:
@@ -165,8 +164,7 @@ def insect_line(plan: StudyPlan) -> str:
 
 
 def settings_lines(plan: StudyPlan) -> list[str]:
-    p = plan.preset
-    search = plan.reading.search
+    p, search = plan.preset, plan.reading.search
     if search is None:
         batch = f"; PSO swarm {p.swarm_size}" if "pso" in plan.methods else ""
     else:  # the reading's search replaces the preset's method, budgets and batch
@@ -193,6 +191,11 @@ def settings_lines(plan: StudyPlan) -> list[str]:
     ]
 
 
+def section(title: str, *lines: str, level: int = 2) -> list[str]:
+    """A Markdown section (lines): its heading of ``level``, a blank line, ``lines``, a blank."""
+    return [f"{'#' * level} {title}", "", *lines, ""]
+
+
 def write_report(
     path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
 ) -> Path:
@@ -207,31 +210,23 @@ def write_report(
         "",
         *settings_lines(plan),
         "",
-        "## Agreement rules",
-        "",
-        *agreement_rules(),
-        "",
-        "## Paper vs ours",
-        "",
-        *verdict_summary(claims),
-        "",
-        claims_table(claims),
-        "",
+        *section("Agreement rules", *agreement_rules()),
+        *section("Paper vs ours", *verdict_summary(claims), "", claims_table(claims)),
     ]
     if notes := [c for c in claims if c.detail or c.note]:
         texts = [f"- **{c.id}**: {'; '.join(t for t in (c.detail, c.note) if t)}" for c in notes]
-        parts += ["### Notes on the rows", "", *texts, ""]
-    parts += ["## Against the reference table", "", *plan.table_lines(rows), ""]
-    parts += ["## Understood differences", "", *[f"- {t}" for t in UNDERSTOOD.values()], ""]
+        parts += section("Notes on the rows", *texts, level=3)
+    parts += section("Against the reference table", *plan.table_lines(rows))
+    parts += section("Understood differences", *[f"- {t}" for t in UNDERSTOOD.values()])
     parts += pinned_section(rows)
     preset = plan.preset.name
     if missing := [n for n in all_studies if n not in {o.name for o in outputs}]:
         rerun = [f"- `{n}`: `python -m eval study {n} --preset {preset}`" for n in missing]
-        parts += ["## Not run", "", *rerun, ""]
-    parts += ["## Figures", "", FIGURE_KEY, ""]
+        parts += section("Not run", *rerun)
+    parts += section("Figures", FIGURE_KEY)
     for o in outputs:
-        parts += [f"### {o.title}", ""]
-        parts += [f"Data: {', '.join(file_link(f, base) for f in o.files)}", ""]
+        data = ", ".join(file_link(f, base) for f in o.files)
+        parts += section(o.title, f"Data: {data}", level=3)
         for caption, figure in o.figures:
             parts += [figure_markdown(caption, figure, base), ""]
     write_text_atomic(path, "\n".join(parts))
@@ -242,15 +237,13 @@ def write_report(
 def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """The parameters pinned at a Table 4 bound, one line per parameter and bound (Markdown)."""
     found = pinned_parameters(rows)
-    lines = [
-        "## Parameters pinned at Table 4 bounds",
-        "",
+    text = (
         f"A parameter is pinned at a condition when more than {PINNED_SHARE:.0%} of the feasible "
         f"seeds put it within {BOUND_TOLERANCE:.0%} of its Table 4 range of a bound "
         "(`pinned` in the summary CSVs, `at_bounds` per seed in the tidy CSVs); a bound the "
-        "optimum presses against is a limit of Table 4, not of the flyer.",
-        "",
-    ]
+        "optimum presses against is a limit of Table 4, not of the flyer."
+    )
+    lines = section("Parameters pinned at Table 4 bounds", text)
     places: dict[tuple[str, str, float], dict[tuple[str, str], list[str]]] = {}
     for r in sorted(found, key=lambda r: (PARAMETER_NAMES.index(r["parameter"]), r["bound"])):
         series = f"{r['task']} {r['objective']}, {r['planform']} ({r['method']})"
@@ -265,14 +258,11 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
 
 def figure_markdown(caption: str, path: Path, base: Path) -> str:
     """A figure in the report: embedded, or linked for a PDF (Markdown viewers cannot show it)."""
-    target = relative_path(path, base)
+    target = Path(os.path.relpath(path, base)).as_posix()
     return f"[{caption} (PDF)]({target})" if path.suffix == ".pdf" else f"![{caption}]({target})"
 
 
 def file_link(path: Path, base: Path) -> str:
     """A Markdown link to ``path``, named by its path relative to ``base``."""
-    return f"[`{relative_path(path, base)}`]({relative_path(path, base)})"
-
-
-def relative_path(path: Path, base: Path) -> str:
-    return Path(os.path.relpath(path, base)).as_posix()
+    target = Path(os.path.relpath(path, base)).as_posix()
+    return f"[`{target}`]({target})"

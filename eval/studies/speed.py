@@ -9,10 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from agents.jobs import Job
-from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Analysis, StudyPlan
+from eval.studies.base import Analysis, Drawn, Records, StudyPlan
 from eval.studies.tables import Rows, by_condition, select, table4_bounds
 
 NAME = "speed"
@@ -36,9 +35,7 @@ def jobs(plan: StudyPlan) -> list[Job]:
     return plan.jobs("level", plan.preset.speeds)
 
 
-def draw(
-    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
-) -> list[tuple[str, Path]]:
+def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 4-6: each quantity over speeds, one series per method."""
 
     def panel(ylabel: str, quantity: str, **paper: Any) -> figures.Panel:
@@ -49,27 +46,22 @@ def draw(
         return figures.Panel(ylabel, series, bounds=bounds, **paper)
 
     # The paper states these trends in words only, no numbers.
-    falls = "paper: falls with V"
-    rises = "paper: rises with V"
-    follows = "paper: follows the power"
+    falls = {"paper_note": "paper: falls with V"}
+    rises = {"paper_note": "paper: rises with V"}
+    follows = {"paper_note": "paper: follows the power"}
     level = "level flight, optimised at each speed"
     pair_mean = figures.pair_mean
     least = [(PAPER_BEST_SPEED, "paper: minimum power")]
+    peak = [(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY)]
     specs = (
         (
             "Fig. 4: thrust ratio, mean angle of attack and stroke-plane angle in level flight",
             "fig4_thrust_aoa_stroke_plane",
             f"Fig. 4: {level}",
             [
-                panel("thrust ratio T/W [-]", "thrust_ratio", paper_note=falls),
-                panel(
-                    pair_mean("mean angle of attack [deg]"),
-                    "mean_angle_of_attack",
-                    paper_note=falls,
-                ),
-                panel(
-                    pair_mean("stroke-plane angle β [deg]"), "stroke_plane_angle", paper_note=rises
-                ),
+                panel("thrust ratio T/W [-]", "thrust_ratio", **falls),
+                panel(pair_mean("mean angle of attack [deg]"), "mean_angle_of_attack", **falls),
+                panel(pair_mean("stroke-plane angle β [deg]"), "stroke_plane_angle", **rises),
             ],
         ),
         (
@@ -78,23 +70,15 @@ def draw(
             f"Fig. 5: {level}",
             [
                 panel("power P/m [W/kg]", "power_per_mass", paper_at=least),
-                panel(pair_mean("frequency f [Hz]"), "frequency", paper_note=follows),
-                panel(
-                    pair_mean("weaving amplitude φ_m [deg]"), "sweep_amplitude", paper_note=follows
-                ),
+                panel(pair_mean("frequency f [Hz]"), "frequency", **follows),
+                panel(pair_mean("weaving amplitude φ_m [deg]"), "sweep_amplitude", **follows),
             ],
         ),
         (
             "Fig. 6: level-flight efficiency",
             "fig6_efficiency",
             f"Fig. 6: level-flight efficiency (thrust_split = {plan.model_options.thrust_split})",
-            [
-                panel(
-                    "efficiency η [%]",
-                    "efficiency_pct",
-                    paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY)],
-                )
-            ],
+            [panel("efficiency η [%]", "efficiency_pct", paper=peak)],
         ),
     )
     return plan.sweep_figures(study_dir, "flight speed V [m/s]", specs)
@@ -105,19 +89,14 @@ def view(plan: StudyPlan, rows: Rows, method: str) -> list[Mapping[str, Any]]:
     return select(rows, method=method, task="level", planform="tear-drop")
 
 
-def trend(quantity: str) -> C.Measure:
-    """``trend``: ρ(V, the medians of ``quantity``); 0 where a Table 4 bound holds it."""
+def trend(quantity: str, against: str | None = None) -> C.Measure:
+    """``trend``: ρ(V, the medians of ``quantity``); ``follows`` (``against`` another quantity):
+    ρ between its and ``quantity``'s medians (and best seeds) over speeds; 0 where a Table 4
+    bound holds ``quantity``."""
     return lambda rows, sign: C.trend_stats(
-        by_condition(rows, quantity), sign, **C.held_at_bound(rows, quantity)
-    )
-
-
-def follows(quantity: str) -> C.Measure:
-    """``follows``: ρ between the power's and ``quantity``'s medians (and best seeds) over
-    speeds; 0 where a Table 4 bound holds ``quantity``."""
-    return lambda rows, _: C.follows_stats(
-        by_condition(rows, "power_per_mass"),
         by_condition(rows, quantity),
+        sign,
+        None if against is None else by_condition(rows, against),
         **C.held_at_bound(rows, quantity),
     )
 
@@ -129,36 +108,25 @@ def extremum(quantity: str, kind: str) -> C.Measure:
 
 def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
     """The highest median η over speeds against the paper's 12.7 % (Fig. 6)."""
-    finite = {
-        v: s for v, s in by_condition(rows, "efficiency_pct").items() if not math.isnan(s.median)
-    }
+    by_speed = by_condition(rows, "efficiency_pct")
+    finite = {v: s for v, s in by_speed.items() if not math.isnan(s.median)}
     if not finite:
-        return {
-            "statement": "peak level-flight efficiency",
-            "detail": "no feasible seed",
-            "note": "",
-        }
+        return dict(statement="peak level-flight efficiency", detail="no feasible seed", note="")
     peak_speed = max(finite, key=lambda v: finite[v].median)
     s = finite[peak_speed]
-    return C.spread_stats(
-        s,
-        best=max(x.best for x in finite.values()),
-        unit="%",
-        detail=f"at V = {peak_speed:g} m/s, {C.seeds_feasible(s)}",
-    )
+    best, detail = max(x.best for x in finite.values()), f"at V = {peak_speed:g} m/s"
+    return C.spread_stats(s, best=best, unit="%", detail=f"{detail}, {C.seeds_feasible(s)}")
 
 
-def at_best_speed(
-    cid: str, figure: str, statement: str, measure: C.Measure, note: str = ""
-) -> C.ClaimSpec:
-    """A ``location`` claim: at the paper's best speed, 1.5 m/s."""
-    return C.ClaimSpec(
-        cid, figure, statement, "1.5 m/s", "location", PAPER_BEST_SPEED, measure, note
-    )
+def at_best_speed(cid: str, fig: str, what: str, measure: C.Measure, note: str = "") -> C.ClaimSpec:
+    """A ``location`` claim ``what``: at the paper's best speed, 1.5 m/s."""
+    return C.ClaimSpec(cid, fig, what, "1.5 m/s", "location", PAPER_BEST_SPEED, measure, note)
 
 
-FOLLOWS = "follows the power trend"
+FOLLOWS, P = "follows the power trend", "power_per_mass"
 LOWEST = "power P/m is lowest at V = 1.5 m/s"
+PEAK = "peak level-flight efficiency (≈ 13 % flight-muscle efficiency)"
+PEAKS = "efficiency peaks at V = 1.5 m/s"
 NOT_P = "η, not P, is maximised: P/m at the η-optimum need not be the minimum power."
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     *(
@@ -169,27 +137,18 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
             ("S3", "thrust ratio T/W", "falls", -1, "thrust_ratio"),
         )
     ),
-    at_best_speed("S4", "Fig. 5", LOWEST, extremum("power_per_mass", "min"), NOT_P),
+    at_best_speed("S4", "Fig. 5", LOWEST, extremum(P, "min"), NOT_P),
     *(
-        C.ClaimSpec(cid, "Fig. 5", f"{what} {FOLLOWS}", "follows P", "follows", +1, follows(q))
+        C.ClaimSpec(cid, "Fig. 5", f"{what} {FOLLOWS}", "follows P", "follows", +1, trend(q, P))
         for cid, what, q in (
             ("S5", "frequency f", "frequency"),
             ("S6", "weaving amplitude φ_m", "sweep_amplitude"),
         )
     ),
     C.ClaimSpec(
-        "S7",
-        "Fig. 6",
-        "peak level-flight efficiency (≈ 13 % flight-muscle efficiency)",
-        f"{PAPER_PEAK_EFFICIENCY} %",
-        "number",
-        PAPER_PEAK_EFFICIENCY,
-        peak_efficiency,
-        SIGN_NOTE,
+        "S7", "Fig. 6", PEAK, "12.7 %", "number", PAPER_PEAK_EFFICIENCY, peak_efficiency, SIGN_NOTE
     ),
-    at_best_speed(
-        "S8", "Fig. 6", "efficiency peaks at V = 1.5 m/s", extremum("efficiency_pct", "max")
-    ),
+    at_best_speed("S8", "Fig. 6", PEAKS, extremum("efficiency_pct", "max")),
 )
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

@@ -48,8 +48,7 @@ class SuitePlan:
         if unknown := [name for name in chosen if name not in STUDIES]:
             raise ValueError(f"unknown study {unknown[0]!r}; allowed: all, {', '.join(STUDIES)}")
         self.asked = list(dict.fromkeys(chosen))
-        self.plan = plan
-        self.out = out
+        self.plan, self.out = plan, out
         self.title = f"study {self.given} ({', '.join(self.asked)})"
         # each study's jobs, built once: the asked ones first, then the other paper studies
         studies = dict.fromkeys([*self.asked, *PAPER_STUDIES])

@@ -1,8 +1,7 @@
 """Records -> tidy rows (one per optimisation) -> per-condition statistics over seeds.
 
 Statistics use the feasible seeds only; "best" is the value at the feasible seed with the best
-objective, so every "best" column describes one and the same stroke.
-"""
+objective, so every "best" column describes one and the same stroke."""
 
 from __future__ import annotations
 
@@ -16,18 +15,12 @@ import numpy as np
 
 from agents.jobs import Job
 from agents.records import Record
-from tandem_env import (
-    PARAMETER_NAMES,
-    TABLE_4,
-    TABLE_4_BOUNDS,
-    StrokeBounds,
-    bound_sides,
-    describe_bounds,
-)
-from tandem_env.physics.stroke import UNBOUNDED
+from tandem_env import PARAMETER_NAMES, TABLE_4, TABLE_4_BOUNDS, StrokeBounds
+from tandem_env.physics.stroke import UNBOUNDED, bound_sides, describe_bounds
 
-#: Tidy rows, one per optimisation (:func:`tidy_rows`).
+#: Tidy rows, one per optimisation (:func:`tidy_rows`), and one row as read.
 Rows = list[dict[str, Any]]
+Row = Mapping[str, Any]
 #: Columns that identify a series (one line in a figure).
 SERIES_KEYS: tuple[str, ...] = ("method", "task", "objective", "planform")
 
@@ -103,10 +96,8 @@ def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
     if not names or not feasible:
         return ""
     sides = _sides(feasible)[:, [PARAMETER_NAMES.index(n) for n in names]]
-    for side, word in ((-1, "lower"), (1, "upper")):
-        if all(np.mean(sides[:, k] == side) > PINNED_SHARE for k in range(len(names))):
-            return word
-    return ""
+    shares = {word: np.mean(sides == side, axis=0) for side, word in ((-1, "lower"), (1, "upper"))}
+    return next((word for word, share in shares.items() if np.all(share > PINNED_SHARE)), "")
 
 
 def _sides(rows: Sequence[Mapping[str, Any]]) -> np.ndarray:
@@ -220,6 +211,10 @@ class Spread:
         return f"{self.median:.3g} [{self.q25:.3g}, {self.q75:.3g}]"
 
 
+#: One quantity of one series over its conditions: {condition: its spread over seeds}.
+Sweep = dict[float, Spread]
+
+
 def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
     """Median, IQR and best of ``quantity`` over the feasible rows (one per seed); circular
     statistics for the angles of :data:`CIRCULAR`."""
@@ -233,17 +228,9 @@ def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
     else:
         q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
     top = max(feasible, key=lambda r: (float(r["objective_value"]), -int(r["seed"])))
-    return Spread(
-        values=tuple(float(v) for v in values),
-        seeds=tuple(int(r["seed"]) for r in feasible),
-        median=float(median),
-        q25=float(q25),
-        q75=float(q75),
-        best=float(top[quantity]),
-        best_seed=int(top["seed"]),
-        n=len(rows),
-        n_feasible=len(feasible),
-    )
+    seeds = tuple(int(r["seed"]) for r in feasible)
+    stats = (float(median), float(q25), float(q75), float(top[quantity]), int(top["seed"]))
+    return Spread(tuple(float(v) for v in values), seeds, *stats, len(rows), len(feasible))
 
 
 def select(rows: Iterable[Mapping[str, Any]], **where: Any) -> list[Mapping[str, Any]]:
@@ -251,18 +238,14 @@ def select(rows: Iterable[Mapping[str, Any]], **where: Any) -> list[Mapping[str,
     return [r for r in rows if all(r[k] == v for k, v in where.items())]
 
 
-def by_condition(
-    rows: Iterable[Mapping[str, Any]], quantity: str, **where: Any
-) -> dict[float, Spread]:
+def by_condition(rows: Iterable[Row], quantity: str, **where: Any) -> Sweep:
     """{condition: Spread} of one series (``where`` picks it), conditions ascending."""
     chosen = select(rows, **where)
     conditions = sorted({float(r["condition"]) for r in chosen})
     return {c: spread(select(chosen, condition=c), quantity) for c in conditions}
 
 
-def series_conditions(
-    rows: Iterable[Mapping[str, Any]],
-) -> list[tuple[tuple[Any, ...], list[Mapping[str, Any]]]]:
+def series_conditions(rows: Iterable[Row]) -> list[tuple[tuple[Any, ...], list[Row]]]:
     """The rows grouped by series (:data:`SERIES_KEYS`, as text) and condition, in that order:
     ((method, task, objective, planform, condition), rows) each."""
     groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
@@ -281,16 +264,10 @@ def spread_summary_rows(rows: Sequence[Mapping[str, Any]], quantities: Sequence[
     for key, members in series_conditions(rows):
         for quantity in quantities:
             s = spread(members, quantity)
-            out.append(
-                {
-                    **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
-                    "condition": key[-1],
-                    "quantity": quantity,
-                    "meaning": QUANTITIES.get(quantity, ""),
-                    **{k: getattr(s, k) for k in SUMMARY_FIELDS},
-                    "pinned": pinned(members, quantity),
-                }
-            )
+            row = dict(zip((*SERIES_KEYS, "condition"), key, strict=True))
+            row |= {"quantity": quantity, "meaning": QUANTITIES.get(quantity, "")}
+            row |= {k: getattr(s, k) for k in SUMMARY_FIELDS}
+            out.append({**row, "pinned": pinned(members, quantity)})
     return out
 
 
@@ -308,15 +285,9 @@ def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> Rows:
             if not (side := pinned(members, name)):
                 continue
             sign = -1 if side == "lower" else 1
-            out.append(
-                {
-                    **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
-                    "condition": key[-1],
-                    "condition_unit": members[0]["condition_unit"],
-                    "parameter": name,
-                    "bound": side,
-                    "value": (bounds.lower if sign < 0 else bounds.upper)[index],
-                    "share": float(np.mean(at[:, index] == sign)),
-                }
-            )
+            row = dict(zip((*SERIES_KEYS, "condition"), key, strict=True))
+            row |= {"condition_unit": members[0]["condition_unit"], "parameter": name}
+            value = (bounds.lower if sign < 0 else bounds.upper)[index]
+            share = float(np.mean(at[:, index] == sign))
+            out.append({**row, "bound": side, "value": value, "share": share})
     return out

@@ -5,20 +5,19 @@ are the sweeps' own."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from agents.jobs import Job
-from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Analysis, StudyPlan
-from eval.studies.power import attainable, excess_label, paper_attainable, series_jobs
+from eval.studies.base import Analysis, Drawn, Records, StudyPlan
+from eval.studies.power import PAPER_ATTAINABLE, attainable, excess_label, series_jobs
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, at_best_speed
-from eval.studies.tables import Rows, Spread, by_condition
+from eval.studies.tables import Rows, Sweep, by_condition
 from tandem_env import Dragonfly
 
 NAME = "wing-shape"
@@ -49,28 +48,22 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
         for wing_name, wing in (("fore", insect.fore), ("hind", insect.hind)):
             if planform == "real":
                 polyval = np.polynomial.polynomial.polyval
-                lead, trail = (
-                    1e3 * wing.length * polyval(r_hat, np.asarray(c, float))
-                    for c in wing.real_edges
-                )
+                lead, trail = (1e3 * wing.length * polyval(r_hat, c) for c in wing.real_edges)
             else:
-                lead = 0.5e3 * wing.chord(r_hat)
-                trail = -0.5e3 * wing.chord(r_hat)
+                lead, trail = 0.5e3 * wing.chord(r_hat), -0.5e3 * wing.chord(r_hat)
             out.append((f"{wing_name}, {planform}", 1e3 * wing.length * r_hat, lead, trail))
     return out
 
 
-def draw(
-    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
-) -> list[tuple[str, Path]]:
+def draw(plan: StudyPlan, rows: Rows, records: Records, study_dir: Path) -> Drawn:
     """Figs. 14-16: the planforms, and η and F̄_a of each planform, one series per method."""
-    h_obj = plan.reading.horizontal_objective
+    views = {m: view(plan, rows, m) for m in plan.methods}
 
-    def by_planform(points: Callable[[str, str], Mapping[float, Spread]]) -> list[figures.Series]:
-        """One series per method and planform of ``points(method, planform)``."""
-        variant = figures.PLANFORM_VARIANT
+    def by_planform(key: str) -> list[figures.Series]:
+        """One series per method and planform of ``key`` (:func:`view`)."""
+        v = figures.PLANFORM_VARIANT
         return [
-            figures.Series(_label(m, pf), points(m, pf), method=m, variant=variant[pf])
+            figures.Series(_label(m, pf), views[m][key][pf], method=m, variant=v[pf])
             for m in plan.methods
             for pf in PLANFORMS
         ]
@@ -78,7 +71,7 @@ def draw(
     gain = f"≈ {PAPER_GAIN_AT_2:g} % more at 2 m/s"
     fig15 = figures.Panel(
         "efficiency η [%]",
-        by_planform(lambda m, planform: _efficiency(rows, m, planform)),
+        by_planform("efficiency"),
         # Fig. 6's number is the tear-drop's; the text of Fig. 15 names the peak and gives the
         # real wing's gain at 2 m/s relative to it.
         paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, "paper, tear-drop")],
@@ -88,10 +81,10 @@ def draw(
     )
     fig16 = figures.Panel(
         excess_label("attainable F̄_a"),
-        by_planform(lambda m, planform: attainable(rows, m, planform, h_obj)),
+        by_planform("attainable"),
         # The paper's F̄_a (Fig. 8) is the tear-drop's; Fig. 16's text gives the real wing only
         # relative to it.
-        paper=paper_attainable("paper, tear-drop"),
+        paper=[(p, v, "paper, tear-drop") for p, v in PAPER_ATTAINABLE.items()],
         paper_note="paper: real wing slightly above tear-drop at every power",
     )
     fig14 = figures.planform_figure(planform_outlines(), plan.figure(study_dir, "fig14_planforms"))
@@ -130,7 +123,7 @@ def _paper_gain(rows: Rows, method: str) -> list[tuple[float, float, str]]:
     return [(2.0, at.median * factor, label)]
 
 
-def _efficiency(rows: Rows, method: str, planform: str) -> dict[float, Spread]:
+def _efficiency(rows: Rows, method: str, planform: str) -> Sweep:
     """η [%] over speeds of ``method`` with ``planform``."""
     return by_condition(rows, "efficiency_pct", method=method, task="level", planform=planform)
 
@@ -140,14 +133,7 @@ def _label(method: str, planform: str) -> str:
     return f"{figures.method_label(method)}, {planform} wing"
 
 
-def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], stat: str) -> float:
-    """Share of the common conditions where the real wing's statistic beats the tear-drop's."""
-    pairs = [(getattr(real[c], stat), getattr(tear[c], stat)) for c in real if c in tear]
-    pairs = [(a, b) for a, b in pairs if math.isfinite(a) and math.isfinite(b)]
-    return math.nan if not pairs else float(np.mean([a > b for a, b in pairs]))
-
-
-Planforms = Mapping[str, Mapping[str, Mapping[float, Spread]]]
+Planforms = Mapping[str, Mapping[str, Sweep]]
 
 
 def view(plan: StudyPlan, rows: Rows, method: str) -> Planforms:
@@ -160,13 +146,17 @@ def view(plan: StudyPlan, rows: Rows, method: str) -> Planforms:
     }
 
 
-def real_wins(quantity: str) -> C.Measure:
-    """``compare``: the share of conditions where the real wing's ``quantity`` beats the
-    tear-drop's (the claim: 1)."""
+def wins(quantity: str) -> C.Measure:
+    """``compare``: the share of the common conditions where the real wing's ``quantity`` (its
+    median, its best seed) beats the tear-drop's (the claim: 1)."""
 
     def measure(by: Planforms, _: Any) -> C.Stats:
-        real, tear = by[quantity]["real"], by[quantity]["tear-drop"]
-        return {k: _share_better(real, tear, k) for k in ("median", "best")}
+        real, tear, out = by[quantity]["real"], by[quantity]["tear-drop"], {}
+        for k in ("median", "best"):
+            pairs = [(getattr(real[c], k), getattr(tear[c], k)) for c in real if c in tear]
+            pairs = [(a, b) for a, b in pairs if math.isfinite(a) and math.isfinite(b)]
+            out[k] = math.nan if not pairs else float(np.mean([a > b for a, b in pairs]))
+        return out
 
     return measure
 
@@ -192,20 +182,15 @@ def gain_at_2(by: Planforms, _: float) -> C.Stats:
 EVERY_SPEED = "the real wing is more efficient than the tear-drop at every speed (share of speeds)"
 EVERY_POWER = "the real wing attains slightly more F̄_a at every power (share of powers)"
 GAIN = "efficiency gain of the real wing at 2 m/s (relative)"
+ALL = ("==", 1.0)
 CLAIMS: tuple[C.ClaimSpec, ...] = (
-    C.ClaimSpec(
-        "W1", "Fig. 15", EVERY_SPEED, "every speed", "compare", ("==", 1.0), real_wins("efficiency")
-    ),
+    C.ClaimSpec("W1", "Fig. 15", EVERY_SPEED, "every speed", "compare", ALL, wins("efficiency")),
     C.ClaimSpec("W2", "Fig. 15", GAIN, "≈ 12 %", "number", PAPER_GAIN_AT_2, gain_at_2),
     *(
-        at_best_speed(
-            f"W3{'ab'[k]}", "Fig. 15", f"{pf} wing: efficiency peaks at 1.5 m/s", peak(pf)
-        )
-        for k, pf in enumerate(PLANFORMS)
+        at_best_speed(cid, "Fig. 15", f"{pf} wing: efficiency peaks at 1.5 m/s", peak(pf))
+        for cid, pf in zip(("W3a", "W3b"), PLANFORMS, strict=True)
     ),
-    C.ClaimSpec(
-        "W4", "Fig. 16", EVERY_POWER, "every power", "compare", ("==", 1.0), real_wins("attainable")
-    ),
+    C.ClaimSpec("W4", "Fig. 16", EVERY_POWER, "every power", "compare", ALL, wins("attainable")),
 )
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

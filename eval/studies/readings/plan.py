@@ -22,6 +22,7 @@ from eval.studies.claims import Claim, VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
 from eval.studies.power import EXCESS_UNIT
 from eval.studies.presets import is_int, is_number
+from eval.studies.tables import Row
 
 NAME = "readings"
 TITLE = "Readings of the paper against its claims"
@@ -32,71 +33,65 @@ CHECK_CSV = "continuation_check.csv"
 #: check, the singles, the combinations; without it, the last two.
 PHASES = ("default", "check", "singles", "combinations")
 
-#: The single readings: the default, then each open decision changed alone (docs/model.md).
-SINGLES: tuple[Reading, ...] = (
-    DEFAULT,
-    Reading(
-        "body",
+#: The single readings: the default, then each open decision changed alone (docs/model.md), as
+#: name: (its changes from the default, what it assumes).
+_SINGLES: dict[str, tuple[dict[str, Any], str]] = {
+    "body": (
+        {"thrust_split": "body"},
         'thrust_split="body" (§7): T is the net horizontal wing force, D the body\'s parasite '
         "drag (net efficiency) instead of the forward/rearward parts of the wing force",
-        options={"thrust_split": "body"},
     ),
-    Reading(
-        "elastic",
+    "elastic": (
+        {"power": "elastic"},
         'power="elastic" (§6): negative work is stored elastically; P is the mean of the '
         "positive part of the total power instead of the sum of |P_aero| and |P_iner|",
-        options={"power": "elastic"},
     ),
-    Reading(
-        "aerodynamic",
+    "aerodynamic": (
+        {"power": "aerodynamic"},
         'power="aerodynamic" (§6.3): only the positive aerodynamic power is charged (inertial '
         "power fully stored and returned) instead of |P_aero| and |P_iner| in full",
-        options={"power": "aerodynamic"},
     ),
-    Reading(
-        "spin-total",
+    "spin-total": (
+        {"spin": "total"},
         'spin="total" (§4): circulation and added mass use the section\'s true spin '
         "η̇ − φ̇·sin θ instead of the pitch rate η̇",
-        options={"spin": "total"},
     ),
-    Reading(
-        "Cr-half",
+    "Cr-half": (
+        {"rotational_coefficient": math.pi / 2},
         "C_r = π/2 on both wings (§1.3): the rotational coefficient of the quasi-steady "
         "literature's other normalisation instead of Table 3's π",
-        rotational_coefficient=math.pi / 2,
     ),
-    Reading(
-        "hover-none",
+    "hover-none": (
+        {"hover_inflow": "none"},
         'hover_inflow="none" (§5.5): Eqs. 20-21 read literally, no induced velocity where the '
         "free stream has no normal component (hover, V = 0) instead of the momentum inflow",
-        options={"hover_inflow": "none"},
     ),
-    Reading(
-        "Fh-literal",
+    "Fh-literal": (
+        {"horizontal_objective": "horizontal_literal"},
         "F̄_h from Eq. 24 read literally (§7.6): F_h = D_f + D_h, the wings' rearward "
         "horizontal forces, maximised (objective horizontal_literal) instead of the net "
         "horizontal wing force",
-        horizontal_objective="horizontal_literal",
     ),
-    Reading(
-        "Chf=0",
+    "Chf=0": (
+        {"interference": 0.0},
         "C_hf = 0 (§5, Eq. 21): the hind-wing does not see the fore-wing's induced velocity "
         "instead of all of it",
-        options={"interference": 0.0},
     ),
-    Reading(
-        "Chf=2",
+    "Chf=2": (
+        {"interference": 2.0},
         "C_hf = 2 (§5, Eq. 21): the hind-wing sees the fore-wing's fully developed far wake "
         "(twice the induced velocity at the disk) instead of the disk value",
-        options={"interference": 2.0},
     ),
-    Reading(
-        "convected",
+    "convected": (
+        {"slipstream": "convected"},
         'slipstream="convected" (§5.7): the hind-wing sees the fore-wing\'s wake as it varies '
         "over the cycle, convected over the fore/hind spacing, instead of its cycle mean; the "
         "only reading under which the model depends on the fore/hind phase (K1-K3 get verdicts)",
-        options={"slipstream": "convected"},
     ),
+}
+SINGLES: tuple[Reading, ...] = (
+    DEFAULT,
+    *(Reading.from_changes(name, text, changes) for name, (changes, text) in _SINGLES.items()),
 )
 
 #: Named readings. ``paper``: the reading with the most agreeing claims in the paper-preset run
@@ -138,13 +133,8 @@ class ReadingResult:
         """Its verdict counts on the median."""
         return VerdictCount.of(self.claims)
 
-    @property
-    def agree(self) -> int:
-        return self.counts.agree
-
-    @property
-    def differ(self) -> int:
-        return self.counts.differ
+    agree = property(lambda self: self.counts.agree, doc="How many claims agree (the median's).")
+    differ = property(lambda self: self.counts.differ, doc="How many claims differ (the median's).")
 
     def verdicts(self) -> dict[str, str]:
         return {c.id: c.verdict for c in self.claims}
@@ -157,15 +147,8 @@ class ReadingResult:
 
 #: The columns of readings.csv, in order.
 CSV_COLUMNS: tuple[str, ...] = (
-    "reading",
-    "kind",
-    "changes",
-    *DECISION_OPTIONS,
-    "rotational_coefficient",
-    "horizontal_objective",
-    "search",
-    *COUNTS,
-    *HEADLINES,
+    *("reading", "kind", "changes", *DECISION_OPTIONS),
+    *("rotational_coefficient", "horizontal_objective", "search", *COUNTS, *HEADLINES),
     "description",
 )
 
@@ -244,26 +227,25 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
 def reading_by_name(name: str) -> Reading:
     """The reading ``name``: a single (:data:`SINGLES`), an alias (:data:`ALIASES`) or these
     joined by ``+`` (their combination, e.g. ``paper+body``); ValueError naming what is allowed."""
-    given = name
     known = {r.name: r for r in SINGLES}
     allowed = f"{', '.join([*ALIASES, *known])}, or these joined by '+'"
     if not isinstance(name, str) or not name.strip("+ "):
-        raise ValueError(f"reading {given!r}: no name; allowed: {allowed}")
+        raise ValueError(f"reading {name!r}: no name; allowed: {allowed}")
     # Each part is a single or an alias, which stands for its singles.
     parts = [single for part in name.split("+") for single in ALIASES.get(part, part).split("+")]
     if unknown := [part for part in name.split("+") if part not in known and part not in ALIASES]:
         raise ValueError(
-            f"reading {given!r}: unknown {', '.join(map(repr, unknown))}; allowed: {allowed}"
+            f"reading {name!r}: unknown {', '.join(map(repr, unknown))}; allowed: {allowed}"
         )
-    name = "+".join(parts)
+    joined = "+".join(parts)
     if len(parts) == 1:
-        return known[name]
+        return known[joined]
     if len(set(parts)) != len(parts) or DEFAULT.name in parts:
         raise ValueError(
-            f"reading {given!r} is {name!r}; allowed: distinct singles other than the default "
+            f"reading {name!r} is {joined!r}; allowed: distinct singles other than the default "
             f"({allowed})"
         )
-    return combine([known[part] for part in parts], name)
+    return combine([known[part] for part in parts], joined)
 
 
 def reading_jobs(plan: StudyPlan, reading: Reading) -> list[Job]:
@@ -303,14 +285,11 @@ def study_jobs(
     for name, study in PAPER_STUDIES.items():
         out[name] = []
         pairs = zip(study.jobs(base), study.jobs(p), strict=True)
-        for position, (default_job, job) in enumerate(pairs):
-            if job.key == default_job.key or job.task in full:
-                out[name].append(job)
-                continue
-            strokes = None
-            if optima is not None:
-                strokes = list({tuple(optima[source][name][position]): None for source in sources})
-            out[name].append(continuation.job(job, strokes))
+        for i, (default_job, job) in enumerate(pairs):  # i: the job's position in its study
+            if job.key != default_job.key and job.task not in full:
+                at = None if optima is None else {tuple(optima[s][name][i]): None for s in sources}
+                job = continuation.job(job, None if at is None else list(at))
+            out[name].append(job)
     return out
 
 
@@ -347,23 +326,17 @@ def check_jobs(
     return list(dict.fromkeys(pairs))
 
 
-def full_tasks(
-    summary: Sequence[Mapping[str, Any]], continuation: Continuation
-) -> dict[str, dict[str, str]]:
+def full_tasks(summary: Sequence[Row], continuation: Continuation) -> dict[str, dict[str, str]]:
     """reading -> task -> why its jobs run in full: the bias check (:func:`check_summary`
     rows) found them short by more than ``full_median`` or ``full_lowest``, or a continued
     optimum infeasible where the full run's is feasible."""
     out: dict[str, dict[str, str]] = {}
+    limits = {"median": continuation.full_median, "lowest": continuation.full_lowest}
     for row in summary:
         if row["reading"] == "all" or row["task"] == "all":
             continue
         why = [
-            f"{key} {100 * row[key]:+.1f} %"
-            for key, limit in (
-                ("median", continuation.full_median),
-                ("lowest", continuation.full_lowest),
-            )
-            if row["pairs"] and row[key] < limit
+            f"{k} {100 * row[k]:+.1f} %" for k, v in limits.items() if row["pairs"] and row[k] < v
         ]
         if count := row["infeasible_continued"]:
             why.append(f"{count} continued optim{'um' if count == 1 else 'a'} infeasible")
@@ -388,8 +361,7 @@ def combinations(
     chosen: list[ReadingResult] = []
     skipped: list[str] = []
     for candidate in gainers:
-        clash = [c.reading.name for c in chosen if candidate.reading.conflicts(c.reading)]
-        if clash:
+        if clash := [c.reading.name for c in chosen if candidate.reading.conflicts(c.reading)]:
             skipped.append(f"{candidate.reading.name} (conflicts with {', '.join(clash)})")
         else:
             chosen.append(candidate)
@@ -397,9 +369,8 @@ def combinations(
     words = f"singles that raised the agreeing claims over the default ({base}): {gains}"
     if skipped:
         words += f"; left out: {', '.join(skipped)}"
-    groups: list[list[ReadingResult]] = [chosen[:2]] if len(chosen) >= 2 else []
-    if len(chosen) >= 3:
-        groups.append(chosen)
+    # the best two and all (the same group when there are two: duplicates are dropped below)
+    groups = [group for group in (chosen[:2], chosen) if len(group) >= 2]
     if gainers:
         top = gainers[0]
         groups += [

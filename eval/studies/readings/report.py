@@ -20,8 +20,8 @@ from matplotlib.patches import Patch, Rectangle
 
 from eval.figures import PALETTE, legend, save
 from eval.studies import report as study_report
-from eval.studies.base import StudyPlan
-from eval.studies.readings.plan import COUNTS, HEADLINES, Continuation, ReadingResult
+from eval.studies.readings.plan import COUNTS, HEADLINES, ReadingResult
+from eval.studies.tables import Row
 from tandem_env.io.files import write_text_atomic
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
@@ -45,16 +45,14 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
     """One line per claim whose verdict differs from the default's, with the statistic before
     and after (``*``: each median inside the other's inter-quartile range)."""
     mine = {c.id: c for c in other.claims}
+    inside = lambda a, b: b.q25 <= a.median <= b.q75  # noqa: E731  (a's median in b's IQR)
     lines = []
     for before in default.claims:
         after = mine.get(before.id)
         if after is None or after.verdict == before.verdict:
             continue
         sign = "+" if after.verdict == "agrees" else ("−" if before.verdict == "agrees" else "·")
-        inside = (
-            before.q25 <= after.median <= before.q75 and after.q25 <= before.median <= after.q75
-        )
-        noise = "*" if inside else ""
+        noise = "*" if inside(after, before) and inside(before, after) else ""
         lines.append(
             f"{sign}{before.id}{noise} ({before.verdict} → {after.verdict}: "
             f"{_num(before.median)} → {_num(after.median)} {after.unit})".replace(" )", ")")
@@ -63,25 +61,28 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
 
 
 def write_readings_report(
-    path: Path,
-    plan: StudyPlan,
-    results: Sequence[ReadingResult],
-    words: str,
-    continuation: Continuation | None,
-    full: Mapping[str, Mapping[str, str]],
-    table: Path,
-    figure: Path,
-    check: Sequence[Mapping[str, Any]],
+    path: Path, study: Any, table: Path, figure: Path, check: Sequence[Mapping[str, Any]]
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it: the
-    ``results`` of its readings, the best, which decision moves which claim, the matrix; the
-    combination rule in ``words``, its ``continuation`` (or None), the bias ``check``
-    (``check_summary`` rows) and the tasks run in ``full``."""
-    base = path.parent
-    default = results[0]
-    best = max(results, key=lambda r: r.agree)
-    n_claims = len(default.claims)
-    base_head = default.headline()
+    """Write the readings study's report to ``path`` (atomically) and return it: the results of
+    the readings of ``study`` (a :class:`~eval.studies.readings.run.ReadingsPlan` that ran), the
+    best, which decision moves which claim, the matrix ``figure`` (data: ``table``); its
+    combination rule, its continuation (or None), the bias ``check`` (``check_summary`` rows)
+    and the tasks run in full."""
+    plan, results, base = study.plan, study.results, path.parent
+    default, best = results[0], max(results, key=lambda r: r.agree)
+    n_claims, base_head, counts = len(default.claims), default.headline(), best.counts
+    # every reading as good as the best, which is the first of them (max keeps the first)
+    ties = [f", tied with `{r.reading.name}`" for r in results if r.agree == best.agree]
+    reached = "reached" if best.agree >= READINGS_GOAL else "not reached"
+    moves: list[study_report.Column] = [
+        READING_COLUMNS[0],
+        ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
+        ("Δ agree", lambda r: f"{r.agree - default.agree:+d}"),
+        *(
+            (f"Δ {k}", lambda r, k=k: _num(r.headline()[k] - base_head[k], "+.3g"))
+            for k in HEADLINES
+        ),
+    ]
     parts = [
         "# Readings of the paper: which reading reproduces which claim",
         "",
@@ -97,23 +98,15 @@ def write_readings_report(
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
         f"Combination rule (combinations derived from the singles' results, not chosen by "
-        f"hand): {words}.",
+        f"hand): {study.words}.",
         "",
-        *_continuation_section(continuation, check, full),
+        *_continuation_section(study.continuation, check, study.full),
         "## Best reading",
         "",
-        f"`{best.reading.name}`"
-        + "".join(
-            f", tied with `{r.reading.name}`"
-            for r in results
-            if r.agree == best.agree and r is not best
-        )
-        + f": {best.agree} of {n_claims} claims agree "
-        f"({best.differ} differ, {best.counts.undecided} undecided, "
-        f"{best.counts.not_identifiable} not identifiable, {best.counts.no_data} without data); "
-        "the default: "
-        f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
-        + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),
+        f"`{best.reading.name}`{''.join(ties[1:])}: {best.agree} of {n_claims} claims agree "
+        f"({best.differ} differ, {counts.undecided} undecided, {counts.not_identifiable} not "
+        f"identifiable, {counts.no_data} without data); the default: {default.agree}. Goal: "
+        f"{READINGS_GOAL} or more of {n_claims} ({reached}).",
         "",
         f"{best.reading.description}.",
         "",
@@ -125,18 +118,7 @@ def write_readings_report(
         "lie inside the other's inter-quartile range over seeds: within the seed-to-seed "
         "spread, i.e. possibly search noise.",
         "",
-        *study_report.markdown_table(
-            [
-                READING_COLUMNS[0],
-                ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
-                ("Δ agree", lambda r: f"{r.agree - default.agree:+d}"),
-                *(
-                    (f"Δ {k}", lambda r, k=k: _num(r.headline()[k] - base_head[k], "+.3g"))
-                    for k in HEADLINES
-                ),
-            ],
-            results[1:],
-        ),
+        *study_report.markdown_table(moves, results[1:]),
         "",
         "## Claims × readings",
         "",
@@ -151,10 +133,7 @@ def write_readings_report(
         "",
         *[f"- `{r.reading.name}`: {r.reading.description}" for r in results],
         "",
-        "## Agreement rules",
-        "",
-        *study_report.agreement_rules(),
-        "",
+        *study_report.section("Agreement rules", *study_report.agreement_rules()),
     ]
     write_text_atomic(path, "\n".join(parts))
     return path
@@ -166,9 +145,7 @@ def _continuation_section(
     """The report's account of the continuation, its measured bias and what ran in full."""
     if continuation is None:
         return ["Every reading ran in full (no continuation).", ""]
-    lines = [
-        "## Continuation and its bias",
-        "",
+    text = (
         f"The default reading ran in full; every other single reading's job that differs from "
         f"the default's continued from the default's optimum of the same job: "
         f"{100 * continuation.share:g} % of the budget, {100 * continuation.initial_share:g} % "
@@ -182,16 +159,14 @@ def _continuation_section(
         "reading's task whose check falls short (median below "
         f"{100 * continuation.full_median:+g} %, one pair below "
         f"{100 * continuation.full_lowest:+g} %, or a continued optimum infeasible where the full "
-        "run's is feasible) then ran in full.",
-        "",
-    ]
+        "run's is feasible) then ran in full."
+    )
     none = ["No checked pairs (no single reading besides the default)."]
-    return [*lines, *(check_table(check, full) if check else none), ""]
+    table = check_table(check, full) if check else none
+    return study_report.section("Continuation and its bias", text, "", *table)
 
 
-def check_table(
-    check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
-) -> list[str]:
+def check_table(check: Sequence[Row], full: Mapping[str, Mapping[str, str]]) -> list[str]:
     """The bias check as a Markdown table, one row per reading and task with whether it ran in
     full and why, the overall row in bold."""
 
@@ -221,6 +196,8 @@ VERDICT_STYLE: dict[str, tuple[str, str, str]] = {
     "no data": ("#bbbbbb", "–", "black"),
 }
 _CODE = {verdict: k for k, verdict in enumerate(VERDICT_STYLE)}
+#: The frame around a verdict changed from the first reading's.
+FRAME: dict[str, Any] = {"fill": False, "ec": "black", "lw": 1.3}
 
 
 def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> Path:
@@ -237,20 +214,14 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
     fig, ax = plt.subplots(figsize=(3.6 + 0.42 * n_cols, 1.6 + 0.24 * n_rows))
     cmap = ListedColormap([color for color, _, _ in VERDICT_STYLE.values()])
     ax.imshow(grid, cmap=cmap, vmin=0, vmax=len(_CODE) - 1, aspect="auto", interpolation="nearest")
-    styles = list(VERDICT_STYLE.values())
-    reference = columns[0][1]
+    styles, reference = list(VERDICT_STYLE.values()), columns[0][1]
     for j, (_, verdicts) in enumerate(columns):
         for i in range(n_rows):
             _, glyph, ink = styles[grid[i][j]]
             ax.text(j, i, glyph, ha="center", va="center", fontsize=6.5, color=ink)
             if j and verdicts[i] != reference[i]:
-                ax.add_patch(
-                    Rectangle((j - 0.45, i - 0.42), 0.9, 0.84, fill=False, ec="black", lw=1.3)
-                )
-    labels = [
-        f"{name} ({verdicts.count('agrees')} ✓, {verdicts.count('undecided')} ?)"
-        for name, verdicts in columns
-    ]
+                ax.add_patch(Rectangle((j - 0.45, i - 0.42), 0.9, 0.84, **FRAME))
+    labels = [f"{name} ({v.count('agrees')} ✓, {v.count('undecided')} ?)" for name, v in columns]
     ax.set_xticks(range(n_cols), labels, rotation=60, ha="right", fontsize=7)
     clip = lambda s: s if len(s) <= 38 else s[:37] + "…"  # noqa: E731
     ax.set_yticks(range(n_rows), [f"{c.id}  {clip(c.statement)}" for c in claims], fontsize=6.5)
@@ -262,7 +233,7 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
         ax.axvline(split - 0.5, color="black", linewidth=1.5)
     ax.set_title(title, fontsize=9)
     entries = [(Patch(color=color), f"{g} {v}") for v, (color, g, _) in VERDICT_STYLE.items()]
-    changed = Patch(fill=False, ec="black", lw=1.3)
+    changed = Patch(**FRAME)
     legend(ax, [*entries, (changed, f"changed vs {columns[0][0]}")])
     fig.tight_layout()
     return save(fig, path)

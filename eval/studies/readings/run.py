@@ -20,57 +20,16 @@ from agents.harness import prepare_job
 from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
-from agents.records import Record
 from agents.runner import Lookup, PlanRun, job_records, run_plan
 from agents.store import RECORDS_DIR, RecordStore
 from eval.studies import PAPER_STUDIES, report
-from eval.studies.base import StudyPlan
+from eval.studies.base import Records, StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
-from eval.studies.readings.plan import (
-    CHECK_CSV,
-    CSV_COLUMNS,
-    DEFAULT_OUT,
-    MANIFEST,
-    NAME,
-    PHASES,
-    SINGLES,
-    Continuation,
-    Optima,
-    ReadingResult,
-    ReadingsResult,
-    check_jobs,
-    combinations,
-    full_tasks,
-    optima_of,
-    reading_jobs,
-    single_readings,
-    study_jobs,
-)
+from eval.studies.readings import plan as rp
 from eval.studies.readings.report import matrix_figure, write_readings_report
+from eval.studies.tables import Rows
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
-
-
-def analyse_reading(
-    plan: StudyPlan, reading: Reading, out: RecordStore, jobs: Mapping[str, Sequence[Job]]
-) -> ReadingResult:
-    """Analyse the four studies' ``jobs`` (:func:`study_jobs`) under ``reading`` into its
-    folder, with its ``report.md`` and a link ``records -> ../records`` for the indexes."""
-    p = replace(plan, reading=reading)
-    where = out.directory / reading.name
-    where.mkdir(parents=True, exist_ok=True)
-    link = where / RECORDS_DIR
-    # no symlinks here (e.g. some Windows setups): the index paths dangle
-    with contextlib.suppress(OSError):
-        if not link.exists() and not link.is_symlink():
-            link.symlink_to(Path("..") / RECORDS_DIR, target_is_directory=True)
-    outputs = tuple(
-        study.analyse(p, job_records(out, jobs[name]), where)
-        for name, study in PAPER_STUDIES.items()
-    )
-    report.write_report(where / "report.md", p, outputs, list(PAPER_STUDIES))
-    return ReadingResult(reading, outputs)
-
 
 #: The columns of continuation_check.csv, in order.
 CHECK_COLUMNS: tuple[str, ...] = tuple(
@@ -79,9 +38,7 @@ CHECK_COLUMNS: tuple[str, ...] = tuple(
 )
 
 
-def check_rows(
-    records: Mapping[Job, Record], checks: Sequence[tuple[Reading, Job, Job]]
-) -> list[dict[str, Any]]:
+def check_rows(records: Records, checks: Sequence[tuple[Reading, Job, Job]]) -> Rows:
     """One row per checked pair: the continued and the full optimum (``difference`` =
     (continued − full) / |full| [-]) and which part the continued run reported."""
     rows = []
@@ -109,19 +66,11 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         both = [r for r in members if r["feasible_full"] and r["feasible_continued"]]
         values = [float(r["difference"]) for r in both]
         lost = sum(bool(r["feasible_full"]) and not r["feasible_continued"] for r in members)
-        out.append(
-            {
-                "reading": reading,
-                "task": task,
-                "pairs": len(values),
-                "median": statistics.median(values) if values else math.nan,
-                "lowest": min(values, default=math.nan),
-                "highest": max(values, default=math.nan),
-                "within_0.5%": sum(v >= -0.005 for v in values),
-                "infeasible": len(members) - len(values),
-                "infeasible_continued": lost,
-            }
-        )
+        row = {"reading": reading, "task": task, "pairs": len(values)}
+        row["median"] = statistics.median(values) if values else math.nan
+        row |= {"lowest": min(values, default=math.nan), "highest": max(values, default=math.nan)}
+        row["within_0.5%"] = sum(v >= -0.005 for v in values)
+        out.append({**row, "infeasible": len(members) - len(values), "infeasible_continued": lost})
     return out
 
 
@@ -129,7 +78,7 @@ def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]
     """The invocations into ``out_dir`` at this preset its manifest records (one written before
     invocations were recorded gives its one run); says so when it holds another preset's."""
     try:
-        before = read_json(out_dir / MANIFEST)
+        before = read_json(out_dir / rp.MANIFEST)
     except (FileNotFoundError, ValueError):
         return []
     if not isinstance(before, Mapping) or before.get("preset") is None:
@@ -145,7 +94,7 @@ def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]
     earlier = list(before.get("invocations", ()))
     if earlier or "phases" not in before:
         return earlier
-    names = PHASES[2:] if before.get("continuation") is None else PHASES
+    names = rp.PHASES[2:] if before.get("continuation") is None else rp.PHASES
     phases = [{"name": name, **phase} for name, phase in zip(names, before["phases"], strict=False)]
     return [{"finished": None, "phases": phases, "wall_time_s": before.get("wall_time_s")}]
 
@@ -173,8 +122,8 @@ class ReadingsPlan:
 
     plan: StudyPlan
     store: RecordStore
-    readings: Sequence[Reading] = SINGLES
-    continuation: Continuation | None = Continuation()
+    readings: Sequence[Reading] = rp.SINGLES
+    continuation: rp.Continuation | None = rp.Continuation()
     derive: bool = True
     progress: bool = True
     title: str = "readings study"
@@ -191,7 +140,7 @@ class ReadingsPlan:
             raise ValueError(f"readings = {names}; allowed: distinct names")
         self.earlier = _earlier_invocations(self.store.directory, self.plan)
         self.load_before = _load()
-        self.results: list[ReadingResult] = []
+        self.results: list[rp.ReadingResult] = []
         self.rows: list[dict[str, Any]] = []
         self.full: dict[str, dict[str, str]] = {}
         self.words = "not derived (derive=False)"
@@ -201,81 +150,87 @@ class ReadingsPlan:
     def _analyse(
         self, jobs: Mapping[str, Mapping[str, Sequence[Job]]], readings: Iterable[Reading]
     ) -> None:
+        """Analyse the four studies' ``jobs`` (:func:`study_jobs`) under each of ``readings`` into
+        its folder, with its ``report.md`` and a link ``records -> ../records`` for the indexes."""
         for reading in readings:
             if self.progress:
                 print(f"analysing reading {reading.name}", file=sys.stderr)
-            self.results.append(analyse_reading(self.plan, reading, self.store, jobs[reading.name]))
+            p, where = replace(self.plan, reading=reading), self.store.directory / reading.name
+            where.mkdir(parents=True, exist_ok=True)
+            link = where / RECORDS_DIR
+            # no symlinks here (e.g. some Windows setups): the index paths dangle
+            with contextlib.suppress(OSError):
+                if not link.exists() and not link.is_symlink():
+                    link.symlink_to(Path("..") / RECORDS_DIR, target_is_directory=True)
+            own = jobs[reading.name]
+            outputs = tuple(
+                study.analyse(p, job_records(self.store, own[name]), where)
+                for name, study in PAPER_STUDIES.items()
+            )
+            report.write_report(where / "report.md", p, outputs, list(PAPER_STUDIES))
+            self.results.append(rp.ReadingResult(reading, outputs))
 
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each from the records of those before it."""
-        plan = self.plan
-        continuation = self.continuation
-        readings = self.readings
+        plan, continuation, readings = self.plan, self.continuation, self.readings
         later = COMBINATIONS_LATER if self.derive else ""
         rows: list[dict[str, Any]] = []  # one per checked job
         full: dict[str, dict[str, str]] = {}
         if continuation is None:
-            jobs = {r.name: study_jobs(plan, r) for r in readings}
-            yield Phase(PHASES[2], _flat(jobs.values()), later=later)
+            jobs = {r.name: rp.study_jobs(plan, r) for r in readings}
+            yield Phase(rp.PHASES[2], _flat(jobs.values()), later=later)
         else:
             # the default first: the others start from its optima
-            jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
+            jobs = {DEFAULT.name: rp.study_jobs(plan, DEFAULT)}
             default = _flat(jobs.values())
-            yield Phase(PHASES[0], default)
+            yield Phase(rp.PHASES[0], default)
             done = found(default)
-            optima: Optima | None = None if done is None else optima_of(done, jobs)
+            optima: rp.Optima | None = None if done is None else rp.optima_of(done, jobs)
             others = readings[1:]
             checks = [
-                (r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)
+                (r, c, f) for r in others for c, f in rp.check_jobs(plan, r, continuation, optima)
             ]
             check = tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
             stand_ins = frozenset(c.key for _, c, _ in checks) if done is None else frozenset()
-            yield Phase(PHASES[1], check, stand_ins)
+            yield Phase(rp.PHASES[1], check, stand_ins)
             if done is not None and checks and (checked := found(check)):
                 rows = check_rows(checked, checks)
-            full = full_tasks(check_summary(rows), continuation)
+            full = rp.full_tasks(check_summary(rows), continuation)
             jobs |= {
-                r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {}))
+                r.name: rp.study_jobs(plan, r, continuation, optima, full.get(r.name, {}))
                 for r in others
             }
             singles = _flat(jobs[r.name] for r in others)
-            own = {job.key for r in others for job in reading_jobs(plan, r)}
+            own = {job.key for r in others for job in rp.reading_jobs(plan, r)}
             stand_ins = frozenset(j.key for j in singles if j.key not in own and done is None)
-            yield Phase(PHASES[2], singles, stand_ins, later)
+            yield Phase(rp.PHASES[2], singles, stand_ins, later)
         if not found.running:
             return
         self.rows, self.full = rows, full
         self._analyse(jobs, readings)
         if not self.derive:
             return
-        derived, self.words = combinations(self.results[0], self.results)
+        derived, self.words = rp.combinations(self.results[0], self.results)
         derived = [r for r in derived if r.name not in jobs]
         if derived:
-            optima = None if continuation is None else optima_of(self.store, jobs)
-            jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
-            yield Phase(PHASES[3], _flat(jobs[r.name] for r in derived))
+            optima = None if continuation is None else rp.optima_of(self.store, jobs)
+            jobs |= {r.name: rp.study_jobs(plan, r, continuation, optima) for r in derived}
+            yield Phase(rp.PHASES[3], _flat(jobs[r.name] for r in derived))
             self._analyse(jobs, derived)
 
-    def finish(self, run: PlanRun) -> ReadingsResult:
+    def finish(self, run: PlanRun) -> rp.ReadingsResult:
         """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
         ``run`` (this plan's)."""
-        out = self.store.directory
-        plan = self.plan
-        results = self.results
+        out, plan, results, words = self.store.directory, self.plan, self.results, self.words
         if self.rows:
-            write_csv_atomic(out / CHECK_CSV, self.rows)
+            write_csv_atomic(out / rp.CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
-        csv_path = out / "readings.csv"
-        report = out / "report.md"
+        csv_path, report = out / "readings.csv", out / "report.md"
         write_csv_atomic(csv_path, csv_rows(results))
         methods = ", ".join(plan.methods)
         title = f"Paper claims under each reading ({plan.preset.name} preset, {methods})"
         figure = matrix_figure(results, plan.figure(out, "readings_matrix"), title)
-        words = self.words
-        continuation = self.continuation
-        write_readings_report(
-            report, plan, results, words, continuation, self.full, csv_path, figure, summary
-        )
+        write_readings_report(report, self, csv_path, figure, summary)
         this = {
             "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "cpus": os.cpu_count(),
@@ -283,49 +238,35 @@ class ReadingsPlan:
             "phases": [{"name": name, **r.to_dict()} for name, r in run.runs.items()],
             "wall_time_s": round(run.wall_time, 1),
         }
-        write_json_atomic(
-            out / MANIFEST,
-            {
-                "preset": plan.preset.name,
-                "methods": list(plan.methods),
-                "claims": [
-                    {"id": c.id, "statement": c.statement, "paper": c.paper}
-                    for c in results[0].claims
-                ],
-                "readings": [
-                    {
-                        "name": r.reading.name,
-                        "changes": r.reading.changes(),
-                        "agree": r.agree,
-                        "verdicts": r.verdicts(),
-                    }
-                    for r in results
-                ],
-                "combination_rule": words,
-                "continuation": None if continuation is None else asdict(continuation),
-                "continuation_check": summary,
-                "run_in_full": self.full,
-                "invocations": [*self.earlier, this],
-            },
-        )
+        claims = [dict(id=c.id, statement=c.statement, paper=c.paper) for c in results[0].claims]
+        readings = [
+            {"name": r.reading.name, "changes": r.reading.changes(), "agree": r.agree}
+            | {"verdicts": r.verdicts()}
+            for r in results
+        ]
+        continuation = None if self.continuation is None else asdict(self.continuation)
+        manifest = {"preset": plan.preset.name, "methods": list(plan.methods), "claims": claims}
+        manifest |= {"readings": readings, "combination_rule": words, "continuation": continuation}
+        manifest |= {"continuation_check": summary, "run_in_full": self.full}
+        write_json_atomic(out / rp.MANIFEST, {**manifest, "invocations": [*self.earlier, this]})
         files = (csv_path, figure, report)
         runs = tuple(run.runs.values())
-        return ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
+        return rp.ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
 
 
 def run_readings(
     plan: StudyPlan,
     out_dir: str | os.PathLike[str] | RecordStore,
     *,
-    readings: Sequence[Reading] = SINGLES,
+    readings: Sequence[Reading] = rp.SINGLES,
     derive: bool = True,
     scheduler: str | None = None,
     progress: bool = True,
-    continuation: Continuation | None = Continuation(),
+    continuation: rp.Continuation | None = rp.Continuation(),
     cache: CacheOption = True,
     rerun: bool = False,
     command: CommandProgress | None = None,
-) -> ReadingsResult:
+) -> rp.ReadingsResult:
     """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`: the ``readings``, the
     default first; the combinations if ``derive``; ``continuation`` None runs all in full) and
     write its outputs; ``plan``'s reading is ignored. ``scheduler``, ``cache``, ``rerun`` and
@@ -336,7 +277,7 @@ def run_readings(
     return study.finish(done)
 
 
-def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
+def csv_rows(results: Sequence[rp.ReadingResult]) -> list[dict[str, Any]]:
     """One row per reading (:data:`CSV_COLUMNS`)."""
     rows = []
     for r in results:
@@ -354,11 +295,11 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             **{k: v if math.isnan(v) else float(f"{v:.4g}") for k, v in r.headline().items()},
             "description": reading.description,
         }
-        rows.append({k: row[k] for k in CSV_COLUMNS})
+        rows.append({k: row[k] for k in rp.CSV_COLUMNS})
     return rows
 
 
-def continuation_option(text: str) -> Continuation | None:
+def continuation_option(text: str) -> rp.Continuation | None:
     """``--continuation``: a share in (0, 1], or none."""
     if text.strip().lower() == "none":
         return None
@@ -370,18 +311,18 @@ def continuation_option(text: str) -> Continuation | None:
             "every reading in full"
         ) from None
     try:
-        return Continuation(share=share)
+        return rp.Continuation(share=share)
     except ValueError as error:
         raise argparse.ArgumentTypeError(
             f"{error} (got {text!r}; or none to run every reading in full)"
         ) from None
 
 
-def check_continuation(plan: StudyPlan, continuation: Continuation) -> None:
+def check_continuation(plan: StudyPlan, continuation: rp.Continuation) -> None:
     """Prepare a continued job of every configuration (method, budget, settings) of the
     default's jobs as the harness will: ValueError, before any work, naming a share whose
     continued jobs cannot run (below one population, a part without evaluations)."""
-    jobs = {(j.method, j.budget, j.method_config): j for j in reading_jobs(plan, DEFAULT)}
+    jobs = {(j.method, j.budget, j.method_config): j for j in rp.reading_jobs(plan, DEFAULT)}
     for job in jobs.values():
         continued = continuation.job(job, None)  # the default's optima are not known yet
         try:
@@ -398,24 +339,24 @@ def check_continuation(plan: StudyPlan, continuation: Continuation) -> None:
 class ReadingsCampaign:
     """The readings study on the command line."""
 
-    names = (NAME,)
+    names = (rp.NAME,)
     description = """\
   readings     the four paper studies under each reading of the paper's open decisions (the
                default, each decision changed alone, the combinations those results point
                to): readings.csv, a claims × readings matrix, report.md (default out
                results/readings)"""
-    default_out = DEFAULT_OUT
+    default_out = rp.DEFAULT_OUT
     reading_help = (
         "readings study: run these single readings (repeat; the default is always "
-        f"run; allowed: {', '.join(r.name for r in SINGLES)})"
+        f"run; allowed: {', '.join(r.name for r in rp.SINGLES)})"
     )
     options: Mapping[str, dict[str, Any]] = {
         "--continuation": {
             "type": continuation_option,
-            "default": Continuation(),
+            "default": rp.Continuation(),
             "metavar": "SHARE|none",
             "help": "readings study only: the other readings continue from the default's "
-            f"optima on SHARE of the budget (default {Continuation().share:g}; "
+            f"optima on SHARE of the budget (default {rp.Continuation().share:g}; "
             "docs/reproduction.md, Readings); none runs every reading in full",
         }
     }
@@ -423,7 +364,7 @@ class ReadingsCampaign:
     def plan(self, args: argparse.Namespace, plan: StudyPlan, out: RecordStore) -> ReadingsPlan:
         """The study of the readings ``--reading`` names (ValueError, before any work, for a
         bad one or a share whose continued jobs cannot run)."""
-        chosen = single_readings(args.reading)
+        chosen = rp.single_readings(args.reading)
         singles = f"{len(chosen) - 1} single reading{'s' * (len(chosen) != 2)}"
         title = f"readings study (the default and {singles})"
         if args.continuation is not None:
@@ -436,7 +377,7 @@ class ReadingsCampaign:
             plan, out, chosen, args.continuation, progress=not args.quiet, title=title
         )
 
-    def report(self, args: argparse.Namespace, result: ReadingsResult) -> None:
+    def report(self, args: argparse.Namespace, result: rp.ReadingsResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
         for phase, run in zip(result.phases, result.runs, strict=True):
             done = f"{run.describe(args.out)} ({run.executor}); {run.wall_time:.1f} s"

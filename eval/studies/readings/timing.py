@@ -7,8 +7,7 @@ studies analysed (``DIR/readings_manifest.json``, the studies' indexes) times ea
 ``--preset``'s jobs under the same readings, run in full (shared jobs once): the job-seconds
 per reading, the serial total and the best wall time on W workers
 (:func:`eval.studies.bench_workers.makespan`). An estimate: the rates carry the measured run's
-machine and load.
-"""
+machine and load."""
 
 from __future__ import annotations
 
@@ -65,9 +64,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         )
     ordered = [d for _, d in sorted(durations, key=lambda x: -x[0])]
     cells = ", ".join(f"{w} workers {makespan(ordered, w) / 3600:.1f} h" for w in WORKERS)
-    print(
-        f"{args.preset}: {len(ordered)} jobs, {sum(ordered) / 3600:.1f} h serial; at best {cells}"
-    )
+    total = f"{len(ordered)} jobs, {sum(ordered) / 3600:.1f} h serial"
+    print(f"{args.preset}: {total}; at best {cells}")
 
 
 if __name__ == "__main__":
