@@ -117,14 +117,21 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
     )
     known = [g for g in (r.certificate.get("gain") for r in runs) if g is not None]
     apart = abs(first - second) / max(first, second) if max(first, second) > 0 else math.nan
-    row = {"condition": label, "polish_share": share, "budget": runs[0].budget if runs else 0}
-    row |= {"seeds": len(runs), "feasible": int(np.isfinite(values).sum())}
-    row |= {
-        k: stat(f, values) for k, f in (("median", np.median), ("min", np.min), ("max", np.max))
+    return {
+        "condition": label,
+        "polish_share": share,
+        "budget": runs[0].budget if runs else 0,
+        "seeds": len(runs),
+        "feasible": int(np.isfinite(values).sum()),
+        "median": stat(np.median, values),
+        "min": stat(np.min, values),
+        "max": stat(np.max, values),
+        "best_first_half": first,
+        "best_second_half": second,
+        "halves_apart": apart,
+        "polish_gain_median": float(np.median(known)) if known else math.nan,
+        "polish_converged": sum(bool(r.certificate.get("converged")) for r in runs),
     }
-    row |= {"best_first_half": first, "best_second_half": second, "halves_apart": apart}
-    row["polish_gain_median"] = float(np.median(known)) if known else math.nan
-    return {**row, "polish_converged": sum(bool(r.certificate.get("converged")) for r in runs)}
 
 
 def checkpoint_rows(label: str, method: str, grid: np.ndarray, values: np.ndarray) -> Rows:
@@ -135,13 +142,22 @@ def checkpoint_rows(label: str, method: str, grid: np.ndarray, values: np.ndarra
     for budget in [c for c in CHECKPOINTS if c <= grid[-1]] + [int(grid[-1])]:
         k = int(np.searchsorted(grid, budget, side="right") - 1)
         at = values[:, k]
-        q25, med, q75 = map(float, np.percentile(at, [25.0, 50.0, 75.0]))
-        low, high = float(at.min()), float(at.max())
-        row = {"condition": label, "method": method, "budget": int(budget), "median": med}
-        row |= {"q25": q25, "q75": q75, "min": low, "max": high}
-        row["spread"] = (high - low) / med if med > 0 else math.nan
-        row["fraction_of_final_median"] = float(med / final) if final else math.nan
-        out.append({**row, "seeds": int(values.shape[0])})
+        q25, med, q75 = np.percentile(at, [25.0, 50.0, 75.0])
+        out.append(
+            {
+                "condition": label,
+                "method": method,
+                "budget": int(budget),
+                "median": float(med),
+                "q25": float(q25),
+                "q75": float(q75),
+                "min": float(at.min()),
+                "max": float(at.max()),
+                "spread": float((at.max() - at.min()) / med) if med > 0 else float("nan"),
+                "fraction_of_final_median": float(med / final) if final else float("nan"),
+                "seeds": int(values.shape[0]),
+            }
+        )
     return list({row["budget"]: row for row in out}.values())
 
 
