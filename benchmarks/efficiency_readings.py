@@ -64,20 +64,16 @@ class Case:
     power: str
     search: Search
 
-    def env_kwargs(self) -> dict[str, Any]:
-        """Only what differs from the defaults (the reading's env keywords), so the records are
-        plain runs' records."""
-        options = {"thrust_split": self.thrust, "power": self.power}
-        return Reading(f"{self.thrust}-{self.power}", "T and P", options=options).env_kwargs()
-
     def prepare(self, seeds: list[int]) -> list[PreparedJob]:
+        """Its jobs over ``seeds``, with only what differs from the defaults in their env
+        keywords (the reading's), so the records are plain runs' records."""
+        options = {"thrust_split": self.thrust, "power": self.power}
+        reading = Reading(f"{self.thrust}-{self.power}", "T and P", options=options)
         budget = self.search.budget("level")
         assert budget is not None
-        settings = {
-            "env_kwargs": self.env_kwargs(),
-            "method_config": dict(self.search.method_config(40)),
-        }
-        return prepare(self.search.method, "level", SPEED, budget, seeds, **settings)
+        config = dict(self.search.method_config(40))
+        kwargs = {"env_kwargs": reading.env_kwargs(), "method_config": config}
+        return prepare(self.search.method, "level", SPEED, budget, seeds, **kwargs)
 
 
 def cases() -> list[Case]:
@@ -139,23 +135,22 @@ def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
 
 def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table of docs/efficiency.md."""
+    row = (
+        "| {T} | {P} | {search} | {median_eta:.1f} | {min_eta:.1f} - {max_eta:.1f} | {best_seed} "
+        "| {median_over_paper:.2f} | {in_range} | {polish_converged}/{seeds} "
+        "| {median_T_over_W:.3f} | {median_P_per_mass:.1f} | {median_eta_T_is_D:.2f} |"
+    )
     lines = [
         "| T | P | search | median η [%] | range [%] | best seed | median / 12.7 % "
         "| 12.7 % in range | polish converged | T/W | P/m [W/kg] | D·V/P [%] |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        *(
+            f"| {r['T']} | {r['P']} | {r['search']} | no feasible seed |" + " |" * 8
+            if r["median_eta"] is None
+            else row.format(**r, in_range="yes" if r["paper_in_range"] else "no")
+            for r in rows
+        ),
     ]
-    for r in rows:
-        if r["median_eta"] is None:
-            lines.append(f"| {r['T']} | {r['P']} | {r['search']} | no feasible seed |" + " |" * 8)
-            continue
-        lines.append(
-            f"| {r['T']} | {r['P']} | {r['search']} | {r['median_eta']:.1f} "
-            f"| {r['min_eta']:.1f} - {r['max_eta']:.1f} | {r['best_seed']} "
-            f"| {r['median_over_paper']:.2f} | {'yes' if r['paper_in_range'] else 'no'} "
-            f"| {r['polish_converged']}/{r['seeds']} "
-            f"| {r['median_T_over_W']:.3f} | {r['median_P_per_mass']:.1f} "
-            f"| {r['median_eta_T_is_D']:.2f} |"
-        )
     return "\n".join(lines)
 
 

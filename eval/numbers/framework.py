@@ -169,16 +169,13 @@ class Benchmark:
     environment: tuple[tuple[str, str], ...] = ()
     """Environment variables the documented command sets, as (name, value)."""
 
-    @property
-    def command(self) -> str:
-        """The command as the documents show it."""
-        return " ".join([*(f"{k}={v}" for k, v in self.environment), "python", *self.arguments])
-
     def run(self) -> dict[str, Any]:
+        """Its numbers, with the command as the documents show it."""
+        command = " ".join([*(f"{k}={v}" for k, v in self.environment), "python", *self.arguments])
         with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
             path = Path(out) / "numbers.json"
             run_command(["python", *self.arguments, "--json", str(path)], dict(self.environment))
-            return {**read_json(path), "command": self.command}
+            return {**read_json(path), "command": command}
 
 
 def table(titles: Sequence[str], rows: Iterable[Iterable[object]]) -> list[str]:
@@ -221,23 +218,19 @@ class Measurement:
     measured under :data:`OTHER_BLAS_KERNELS`, rendered at the digits all give."""
 
 
-def cpu_model() -> str:
-    """The CPU's model name where the system tells it (Linux), else the architecture."""
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
-            if line.startswith("model name"):
-                return line.partition(":")[2].strip()
-    return platform.processor() or platform.machine()
-
-
 def machine() -> dict[str, Any]:
-    """Where and when a measurement ran (timings are read against this)."""
+    """Where and when a measurement ran (timings are read against this; the CPU's model name
+    where the system tells it, Linux, else the architecture)."""
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
+    processor = cpu = platform.processor() or platform.machine()
+    with contextlib.suppress(OSError):
+        lines = Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines()
+        cpu = next((x.partition(":")[2].strip() for x in lines if x.startswith("model name")), cpu)
     return {
         "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "cpus": os.cpu_count(),
-        "processor": platform.processor() or platform.machine(),
-        "cpu_model": cpu_model(),
+        "processor": processor,
+        "cpu_model": cpu,
         "python": platform.python_version(),
         "load_average_1min": round(load[0], 2),
     }
