@@ -69,10 +69,9 @@ def _op(kind: str, fn):
     return apply
 
 
-for _name in ("add", "radd", "sub", "rsub", "mul", "rmul"):
-    setattr(Counted, f"__{_name}__", _op("flop", getattr(float, f"__{_name}__")))
-Counted.__truediv__ = _op("div", float.__truediv__)
-Counted.__rtruediv__ = _op("div", float.__rtruediv__)
+for _name in ("add", "radd", "sub", "rsub", "mul", "rmul", "truediv", "rtruediv"):
+    _kind = "div" if _name.endswith("div") else "flop"
+    setattr(Counted, f"__{_name}__", _op(_kind, getattr(float, f"__{_name}__")))
 Counted.__neg__ = lambda x: Counted(-float(x))
 Counted.__abs__ = lambda x: Counted(abs(float(x)))
 
@@ -225,15 +224,8 @@ def main() -> None:
     import tandem_env as te
     from tandem_env.physics import cycle, model
 
-    numbers = {
-        "commit": args.commit,
-        "rounds": args.rounds,
-        "calls": args.calls,
-        "batch": 1024,
-        "load_before": os.getloadavg()[0],
-        "ghz": clock_ghz(),
-        **machine_limits(),
-    }
+    numbers = {key: getattr(args, key) for key in ("commit", "rounds", "calls")} | {"batch": 1024}
+    numbers |= {"load_before": os.getloadavg()[0], "ghz": clock_ghz(), **machine_limits()}
     call, strokes, options = workload(te)
     inputs = model.parametric_kernel_inputs(strokes, options.n_time)
     out = model.run_kernel(*inputs[:5], np.ones(1024), np.zeros(1024), te.DRAGONFLY, options).means
@@ -250,12 +242,8 @@ def main() -> None:
         + ops["span"].get(key, 0)
         for key in ("flop", "div", "sqrt", "libm")
     }
-    numbers |= {
-        "per_stroke": per_stroke,
-        "operations": ops,
-        "per_element_sample": per_sample,
-        "stages_ms": stages(te, options, strokes, inputs),
-    }
+    numbers |= {"per_stroke": per_stroke, "operations": ops, "per_element_sample": per_sample}
+    numbers["stages_ms"] = stages(te, options, strokes, inputs)
     print(
         "where the time goes (CPU ms per call, 1 thread):",
         ", ".join(f"{k} {v:.1f}" for k, v in numbers["stages_ms"].items()),
@@ -273,8 +261,7 @@ def main() -> None:
     times = {t: {"old": [], "new": []} for t in args.threads}  # (wall, CPU) s per call
     for _ in range(args.rounds):
         for threads in args.threads:
-            old.stdin.write(f"{threads} {args.calls}\n")
-            old.stdin.flush()
+            print(threads, args.calls, file=old.stdin, flush=True)
             times[threads]["old"].append([float(x) for x in old.stdout.readline().split()])
             numba.set_num_threads(threads)
             times[threads]["new"].append(seconds_per_call(call, args.calls))
@@ -301,8 +288,7 @@ def main() -> None:
                 f"(rounds {ratios.min():.2f}-{ratios.max():.2f})"
             )
         numbers["speed"].append(row)
-    one = numbers["speed"][0]
-    ns = 1e-3 * one["cpu_new_ms"] * 1e9 / 1024 / per_stroke["element_samples"]
+    ns = 1e-3 * numbers["speed"][0]["cpu_new_ms"] * 1e9 / 1024 / per_stroke["element_samples"]
     numbers |= {"ns_per_element_sample": ns, "load_after": os.getloadavg()[0]}
     print(f"per stroke: {per_stroke}; per element sample: {per_sample}")
     print(
