@@ -145,13 +145,9 @@ def measure_reference() -> dict[str, Any]:
     return json.loads(reference_path().read_text(encoding="utf-8"))
 
 
-def render_reference(data: dict[str, Any]) -> str:
-    return reference_markdown(data)
-
-
 MEASUREMENTS = (
     Measurement("convergence", CONVERGENCE.run, render_convergence),
     Measurement("rotational-coefficient", measure_rotation, render_rotation),
     Measurement("power-conventions", measure_power, render_power),
-    Measurement("reference-table", measure_reference, render_reference),
+    Measurement("reference-table", measure_reference, reference_markdown),
 )
