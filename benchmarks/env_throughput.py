@@ -48,12 +48,8 @@ def main() -> None:
     ]
     env = gym.make(ENV_ID)
     env.reset(seed=0)
-
-    def single() -> None:
-        env.reset()
-        env.step(actions[0])
-
-    rows.append(("single env (gym.make), reset + step", rate(single, seconds, 1)))
+    single = rate(lambda: (env.reset(), env.step(actions[0])), seconds, 1)
+    rows.append(("single env (gym.make), reset + step", single))
     for mode, label in (("NextStep", "next-step autoreset"), ("SameStep", "same-step autoreset")):
         envs = gym.make_vec(
             ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", autoreset_mode=mode

@@ -66,9 +66,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     numbers: dict[str, Any] = {
         "numba": numba.__version__,
         "numba_threads": numba.get_num_threads(),
-        "n_time": options.n_time,
-        "n_blade": options.n_blade,
-        "tolerance": options.tolerance,
+        **{key: getattr(options, key) for key in ("n_time", "n_blade", "tolerance")},
         "repeats": args.repeats,
         "rates": [],
         "breakdown": [],
@@ -185,8 +183,7 @@ def accuracy(
     for name, value in want.as_dict().items():
         a, b = value.astype(float), getattr(got, name).astype(float)
         relative[name] = float(np.max(np.abs(b - a) / np.maximum(np.abs(a), 1e-6)))
-    worst_name = max(relative, key=relative.__getitem__)
-    worst = relative[worst_name]
+    worst_name, worst = max(relative.items(), key=lambda item: item[1])
     print()
     print(
         f"against numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"
