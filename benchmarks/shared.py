@@ -41,11 +41,6 @@ def call_times(call: Callable[[], Any], repeats: int) -> tuple[list[float], list
     return list(wall), list(cpu)
 
 
-def best_time(call: Callable[[], Any], repeats: int) -> float:
-    """The best wall seconds of ``repeats`` calls after a warm-up (:func:`call_times`)."""
-    return min(call_times(call, repeats)[0])
-
-
 def machine() -> str:
     """The processor, its cores, numba's threads and the load, as the scripts print them."""
     import numba

@@ -71,20 +71,18 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
 
     def cells(batch: int) -> list[Any]:
         per_s = (rates[batch, i] for i in INDUCTIONS)
-        ranges = (framework.median_range(ratios[batch], k) for k in ("wall", "cpu"))
         spaced = framework.spaced
         return [
             batch,
             *(f"{spaced(r['best_per_s'])} / {spaced(r['median_per_s'])}" for r in per_s),
-            *ranges,
+            *(framework.median_range(ratios[batch], k) for k in ("wall", "cpu")),
         ]
 
     lines = framework.table(
         [
             "batch",
             *(f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS),
-            "coupled / none, wall: median (range)",
-            "coupled / none, CPU: median (range)",
+            *(f"coupled / none, {k}: median (range)" for k in ("wall", "CPU")),
         ],
         map(cells, sorted(ratios)),
     )
@@ -198,10 +196,8 @@ def render_roofline(data: dict[str, Any]) -> str:
     lines = framework.table(
         [
             "numba threads",
-            f"{data['commit']}: ms per call, wall / CPU",
-            "now: ms per call, wall / CPU",
-            "speed-up, wall: median (range)",
-            "speed-up, CPU: median (range)",
+            *(f"{commit}: ms per call, wall / CPU" for commit in (data["commit"], "now")),
+            *(f"speed-up, {k}: median (range)" for k in ("wall", "CPU")),
         ],
         (
             [
