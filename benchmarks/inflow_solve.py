@@ -69,15 +69,13 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
         print(f"{batch:>6} {name:>10} {best:>13.0f} {median:>15.0f} {1e3 * best_cpu:>17.2f}")
         row = {"batch": batch, "induction": name, "best_per_s": best, "median_per_s": median}
         numbers["rates"].append(row | {"best_cpu_per_s": batch / best_cpu})
-    print()
-    print("coupled / none (time per call; per-round ratios: median and range):")
+    print("\ncoupled / none (time per call; per-round ratios: median and range):")
     for batch in BATCHES:
         row = ratios(wall, cpu, ("coupled", batch), ("none", batch))
         best = min(wall["coupled", batch]) / min(wall["none", batch])
         print(f"  batch {batch:>4}: {row.pop('line')} (best/best {best:.3f})")
         numbers["ratios"].append({"batch": batch, **row})
-    print()
-    print("reading / mean slipstream, all coupled (per-round ratios: median and range):")
+    print("\nreading / mean slipstream, all coupled (per-round ratios: median and range):")
     for reading, batch in ((r, b) for r in READINGS for b in BATCHES):
         row = ratios(wall, cpu, (reading, batch), ("coupled", batch))
         print(f"  {reading:>9} batch {batch:>4}: {row.pop('line')}")
@@ -133,8 +131,7 @@ def main() -> None:
         f"{machine()}; n_time = {PAPER.n_time}, n_blade = {PAPER.n_blade}, "
         f"tolerance {PAPER.tolerance:g}"
     )
-    print()
-    print(f"force sweeps per fore-wing annulus (own inflow, {SWEEP_STROKES} random strokes):")
+    print(f"\nforce sweeps per fore-wing annulus (own inflow, {SWEEP_STROKES} random strokes):")
     sweeps = []
     for speed in SWEEP_SPEEDS:
         counts, solved = sweeps_per_annulus(strokes[:SWEEP_STROKES], speed)

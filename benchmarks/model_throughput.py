@@ -60,9 +60,8 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     print(machine())
     print(
         f"default resolution: n_time = {options.n_time} samples per cycle, "
-        f"n_blade = {options.n_blade} blade elements per wing, inflow tolerance {options.tolerance:g}"
+        f"n_blade = {options.n_blade} blade elements per wing, inflow tolerance {options.tolerance:g}\n"
     )
-    print()
     numbers: dict[str, Any] = {
         "numba": numba.__version__,
         "numba_threads": numba.get_num_threads(),
@@ -82,8 +81,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
         row = {"batch": batch, "induction": induction, "evaluations_per_s": rate}
         numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
-    print()
-    print("where the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
+    print("\nwhere the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
     *kinematic, motion = model.parametric_kernel_inputs(strokes, options.n_time)
     inputs = (*kinematic, speeds, np.zeros_like(speeds), te.DRAGONFLY)
     kinematics = partial(model.parametric_kernel_inputs, strokes, options.n_time)
@@ -184,9 +182,8 @@ def accuracy(
         a, b = value.astype(float), getattr(got, name).astype(float)
         relative[name] = float(np.max(np.abs(b - a) / np.maximum(np.abs(a), 1e-6)))
     worst_name, worst = max(relative.items(), key=lambda item: item[1])
-    print()
     print(
-        f"against numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"
+        f"\nagainst numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"
     )
     scaled = {}
     for name in ("lift_to_weight", "thrust", "drag", "power", "efficiency", "fore_inflow"):
@@ -211,9 +208,8 @@ def gradient_cost(
     central = min(
         call_times(lambda: te.evaluate(probes, speeds[0], options=PAPER), args.repeats)[0]
     )
-    print()
     print(
-        f"gradient of power with respect to the 28 parameters, per stroke: central difference "
+        f"\ngradient of power with respect to the 28 parameters, per stroke: central difference "
         f"of numba ({probes.shape[0]} strokes in one call) {1e3 * central:.1f} ms"
     )
     numbers: dict[str, Any] = {"central_difference_ms": 1e3 * central, "probes": probes.shape[0]}
