@@ -191,14 +191,13 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         lags = [float(r["lag_deg"]) for r in mine]
         uvlm = [float(r["uvlm_hind_change_pct"]) for r in mine]
         uvlm_loss = largest_loss_lag(lags, uvlm)
-        uvlm_phase = first_harmonic_phase(lags, uvlm)
         entry: dict[str, Any] = {
             "case": case,
             "lags": lags,
             "uvlm": uvlm,
             "uvlm_fore": [float(r["uvlm_fore_change_pct"]) for r in mine],
             "uvlm_loss_lag": uvlm_loss,
-            "uvlm_phase": uvlm_phase,
+            "uvlm_phase": first_harmonic_phase(lags, uvlm),
             "readings": {},
         }
         for reading in readings(rows):
@@ -210,7 +209,7 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                 "same_sign": sum((a < 0) == (b < 0) for a, b in zip(ours, uvlm, strict=True)),
                 "loss_lag": loss,
                 "loss_lag_off": None if loss is None else lag_distance(loss, uvlm_loss),
-                "phase_off": None if loss is None else lag_distance(phase, uvlm_phase),
+                "phase_off": None if loss is None else lag_distance(phase, entry["uvlm_phase"]),
             }
         out.append(entry)
     return out
@@ -224,25 +223,17 @@ def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     out = {}
     entries = summary(rows)
     for reading in readings(rows):
-        (hind_rms, hind_sign), (fore_rms, fore_sign) = (
-            agreement_numbers(rows, reading, pair) for pair in ("hind", "fore")
-        )
-        within = [e["readings"][reading]["loss_lag_off"] for e in entries]
-        out[reading] = {
-            "points": len(rows),
-            "cases": len(entries),
-            "hind_sign": hind_sign,
-            "fore_sign": fore_sign,
-            "hind_rms": hind_rms,
-            "fore_rms": fore_rms,
-            "within": sum(off is not None and off <= 45.0 for off in within),
-        }
+        offs = [e["readings"][reading]["loss_lag_off"] for e in entries]
+        within = sum(off is not None and off <= 45.0 for off in offs)
+        out[reading] = {"points": len(rows), "cases": len(entries), "within": within}
+        for pair in ("hind", "fore"):
+            rms, sign = agreement_numbers(rows, reading, pair)
+            out[reading] |= {f"{pair}_rms": rms, f"{pair}_sign": sign}
     return out
 
 
 def case_label(case: tuple[float, float, float]) -> str:
-    speed, spacing, _ = case
-    return f"V = {speed:g} m/s, d = {spacing:g} mm"
+    return f"V = {case[0]:g} m/s, d = {case[1]:g} mm"
 
 
 def render(data: dict[str, Any]) -> str:
@@ -256,10 +247,10 @@ def render(data: dict[str, Any]) -> str:
         "of vertical force due to the fore-wing [%], at each lag ΔΦ (+: the hind-wing leads); "
         "the mean reading gives one value at every lag:",
         "",
+        *table_head(
+            ["lag ΔΦ", *(x for e in entries for x in (f"{case_label(e['case'])}: UVLM", *names))]
+        ),
     ]
-    lines += table_head(
-        ["lag ΔΦ", *(x for e in entries for x in (f"{case_label(e['case'])}: UVLM", *names))]
-    )
     for i, lag in enumerate(lags):
         columns = [[e["uvlm"], *(e["readings"][n]["changes"] for n in names)] for e in entries]
         lines.append(table_row([f"{lag:g}°", *(f"{c[i]:+.1f}" for cs in columns for c in cs)]))
