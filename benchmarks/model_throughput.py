@@ -53,19 +53,18 @@ def main() -> None:
 def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     """Evaluations per second of the numba kernel per inflow model and batch, and where the
     time of one coupled batch of 1024 goes."""
-    options = PAPER
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
     speeds = rng.uniform(0.25, 2.0, 1024)
     print(machine())
     print(
-        f"default resolution: n_time = {options.n_time} samples per cycle, "
-        f"n_blade = {options.n_blade} blade elements per wing, inflow tolerance {options.tolerance:g}\n"
+        f"default resolution: n_time = {PAPER.n_time} samples per cycle, "
+        f"n_blade = {PAPER.n_blade} blade elements per wing, inflow tolerance {PAPER.tolerance:g}\n"
     )
     numbers: dict[str, Any] = {
         "numba": numba.__version__,
         "numba_threads": numba.get_num_threads(),
-        **{key: getattr(options, key) for key in ("n_time", "n_blade", "tolerance")},
+        **{key: getattr(PAPER, key) for key in ("n_time", "n_blade", "tolerance")},
         "repeats": args.repeats,
         "rates": [],
         "breakdown": [],
@@ -82,15 +81,15 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
         numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
     print("\nwhere the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
-    *kinematic, motion = model.parametric_kernel_inputs(strokes, options.n_time)
+    *kinematic, motion = model.parametric_kernel_inputs(strokes, PAPER.n_time)
     inputs = (*kinematic, speeds, np.zeros_like(speeds), te.DRAGONFLY)
-    kinematics = partial(model.parametric_kernel_inputs, strokes, options.n_time)
+    kinematics = partial(model.parametric_kernel_inputs, strokes, PAPER.n_time)
     no_inflow = partial(model.run_kernel, *inputs, replace(PAPER, induction="none"), motion=motion)
     parts = {
         "validate strokes": lambda: te.validate_physical(strokes),
         "kinematics (angles, analytic rates)": kinematics,
         "cycle without inflow (frames, forces, power, means)": no_inflow,
-        "cycle with coupled inflow": partial(model.run_kernel, *inputs, options, motion=motion),
+        "cycle with coupled inflow": partial(model.run_kernel, *inputs, PAPER, motion=motion),
         "whole evaluate()": lambda: te.evaluate(strokes, speeds, options=PAPER),
     }
     for name, call in parts.items():
