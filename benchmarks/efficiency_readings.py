@@ -154,8 +154,10 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def _meta(load_before: tuple[float, ...], wall: float, scheduler: str | None) -> dict[str, Any]:
-    """Date, machine, load and command of a run (the docs quote them beside its numbers)."""
+def _meta(started: tuple[Any, float], scheduler: str | None) -> dict[str, Any]:
+    """Date, machine, load and command of a run just finished that ``started`` (load average,
+    ``time.perf_counter()``) (the docs quote them beside its numbers)."""
+    load_before, start = started
     return {
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "machine": f"{os.cpu_count()} CPU cores ({platform.machine()}), "
@@ -164,7 +166,7 @@ def _meta(load_before: tuple[float, ...], wall: float, scheduler: str | None) ->
         "load_average_after": [round(x, 2) for x in os.getloadavg()],
         "command": " ".join(["python", *sys.argv]),
         "scheduler": scheduler or "serial",
-        "wall_time_s": round(wall, 1),
+        "wall_time_s": round(time.perf_counter() - start, 1),
     }
 
 
@@ -188,14 +190,12 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
     is "moved" where its verdict differs from that of the same model searched as the preset
     searches."""
     where = out / f"claims-{preset}"
-    load_before = os.getloadavg()
-    start = time.perf_counter()
+    started = os.getloadavg(), time.perf_counter()
     # continuation None: every reading searched from scratch (the search is what is read)
     options = {"derive": False, "scheduler": scheduler, "progress": False, "continuation": None}
-    result = run_readings(
-        StudyPlan(get_preset(preset)), where, readings=claim_readings(), **options
-    )
-    wall = time.perf_counter() - start
+    plan = StudyPlan(get_preset(preset))
+    result = run_readings(plan, where, readings=claim_readings(), **options)
+    meta = _meta(started, scheduler) | {"preset": preset}
     by_model = {json.dumps(r.reading.env_kwargs(), sort_keys=True): r for r in result.results}
     names = [r.reading.name for r in result.results]
     print(*table_head(["claim", "paper", *names]), sep="\n")
@@ -214,12 +214,10 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
     counts = {r.reading.name: {"agree": r.agree, "differ": r.differ} for r in result.results}
     print("agree: " + ", ".join(f"{n} {c['agree']}" for n, c in counts.items()))
     print("differ: " + ", ".join(f"{n} {c['differ']}" for n, c in counts.items()))
-    meta = _meta(load_before, wall, scheduler) | {"preset": preset}
     meta["runs"] = [s.to_dict() for s in result.runs]
-    write_json_atomic(
-        where / "efficiency_claims.json", {"meta": meta, "counts": counts, "claims": rows}
-    )
-    print(f"{wall:.0f} s; wrote {where / 'efficiency_claims.json'}", file=sys.stderr)
+    path = where / "efficiency_claims.json"
+    write_json_atomic(path, {"meta": meta, "counts": counts, "claims": rows})
+    print(f"{meta['wall_time_s']:.0f} s; wrote {path}", file=sys.stderr)
     return 0
 
 
@@ -242,27 +240,25 @@ def main() -> int:
         return claims(args.claims, Path(args.out), args.scheduler)
     wanted = {"all": (True, False), "certified": (True,), "search": (False,)}[args.part]
     prepared = {c: c.prepare(args.seeds) for c in cases() if (c.search == CERTIFIED) in wanted}
-    load_before = os.getloadavg()
-    start = time.perf_counter()
+    started = os.getloadavg(), time.perf_counter()
     jobs = [p for group in prepared.values() for p in group]
     summary = run_jobs(jobs, args.out, scheduler=args.scheduler, progress=False)
-    wall = time.perf_counter() - start
-    rows = [summarise(c, [summary.records[p.job.key] for p in g]) for c, g in prepared.items()]
-    print(table(rows))
-    meta = _meta(load_before, wall, args.scheduler) | {
+    meta = _meta(started, args.scheduler) | {
         "runs": summary.total,
         "ran": summary.ran,
         "reused": summary.reused,
         "speed": SPEED,
         "paper_eta": PAPER_ETA,
     }
+    rows = [summarise(c, [summary.records[p.job.key] for p in g]) for c, g in prepared.items()]
+    print(table(rows))
     path = Path(args.out) / "efficiency_readings.json"
     if summary.ran == 0 and path.exists():  # nothing ran: keep the timing of the run that did
         before = read_json(path).get("meta", {})
         meta["measured_by"] = before.get("measured_by", before)
     write_json_atomic(path, {"meta": meta, "rows": rows})
     print(
-        f"{summary.total} runs ({summary.ran} run, {summary.reused} reused) in {wall:.0f} s; "
+        f"{summary.total} runs ({summary.ran} run, {summary.reused} reused) in {meta['wall_time_s']:.0f} s; "
         f"load {meta['load_average_before']} -> {meta['load_average_after']}; wrote {path}",
         file=sys.stderr,
     )
