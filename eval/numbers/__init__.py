@@ -18,7 +18,6 @@ import importlib
 import pkgutil
 import re
 import sys
-from types import ModuleType
 
 from eval.numbers import framework
 
@@ -26,16 +25,13 @@ NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
 
 
-#: Every module of this package but the framework: one per measurement (or set of them).
-_MODULES: list[ModuleType] = [
-    importlib.import_module(f"{__name__}.{m.name}")
-    for m in pkgutil.iter_modules(__path__)
-    if m.name != "framework"
-]
-#: Every measurement by name: each module's ``MEASUREMENT`` (or its ``MEASUREMENTS``).
+#: Every measurement by name: each module's ``MEASUREMENT`` (or its ``MEASUREMENTS``), every
+#: module of this package but the framework holding one measurement (or a set of them).
 MEASUREMENTS: dict[str, framework.Measurement] = {
     m.name: m
-    for module in _MODULES
+    for info in pkgutil.iter_modules(__path__)
+    if info.name != "framework"
+    for module in [importlib.import_module(f"{__name__}.{info.name}")]
     for m in getattr(module, "MEASUREMENTS", None) or (module.MEASUREMENT,)
 }
 
@@ -86,11 +82,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
             before = framework.machine()
             data = MEASUREMENTS[name].measure()
-            if MEASUREMENTS[name].blas_dependent:  # measured again under the other kernels
-                data |= {
-                    "blas_kernel": framework.blas_kernel(),
-                    "other_kernels": framework.measure_other_kernels(name),
-                }
+            if MEASUREMENTS[name].blas_dependent:
+                data |= framework.measure_other_kernels(name)
             framework.save(
                 name, {**data, "machine_before": before, "machine_after": framework.machine()}
             )

@@ -112,14 +112,16 @@ def other_kernels() -> list[str]:
     return [kernel for kernel in OTHER_BLAS_KERNELS if kernel.lower() != own.lower()]
 
 
-def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`."""
+def measure_other_kernels(name: str) -> dict[str, Any]:
+    """The machine's own kernel (``blas_kernel``) and measurement ``name`` again in a fresh
+    process under each of :func:`other_kernels` (``other_kernels``, by kernel)."""
     script = (
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
     )
     command = [sys.executable, "-c", script, name]
-    return {k: json.loads(_run(command, {"OPENBLAS_CORETYPE": k})) for k in other_kernels()}
+    others = {k: json.loads(_run(command, {"OPENBLAS_CORETYPE": k})) for k in other_kernels()}
+    return {"blas_kernel": blas_kernel(), "other_kernels": others}
 
 
 def kernel_views(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
