@@ -32,9 +32,7 @@ from tandem_env.io.keyvalue import add_pairs_argument
 
 CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"available_power": 60.0}, 60.0)}
 #: The package's public calls our CMA-ES makes (agents/cmaes_search.py): its whole work.
-PACKAGE_CALLS = {
-    "cmaes": ((cmaes.CMAwM, "ask"), (cmaes.CMAwM, "tell"), (cmaes.CMAwM, "should_stop"))
-}
+PACKAGE_CALLS = {"cmaes": tuple((cmaes.CMAwM, name) for name in ("ask", "tell", "should_stop"))}
 
 
 @dataclass

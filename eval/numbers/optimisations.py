@@ -51,10 +51,7 @@ SPECIES_INSECTS: tuple[tuple[str, tuple[str, ...]], ...] = (
 )
 """(label, the options that choose the insect) of each row."""
 #: The best seed's metrics (heading, format) the table shows, then its stroke parameters.
-SPECIES_METRICS: tuple[tuple[str, str, str], ...] = (
-    ("lift_to_weight", "L/W", "{:.3f}"),
-    ("power_per_mass", "P/m [W/kg]", "{:.1f}"),
-)
+SPECIES_METRICS = (("lift_to_weight", "L/W", "{:.3f}"), ("power_per_mass", "P/m [W/kg]", "{:.1f}"))
 SPECIES_PARAMETERS: tuple[str, ...] = tuple(
     "frequency sweep_amplitude elevation_amplitude pitch_amplitude stroke_plane_angle".split()
 )

@@ -37,10 +37,7 @@ _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS"
 #: The hyperparameters each algorithm is trained with: the shipped file's (None: the default
 #: ``train/hyperparams/<algo>.yml``, tuned at V = 1.5 m/s) and the envelope's, tuned by
 #: ``python -m train.tune`` (each file says how it was made).
-HYPERPARAMETERS: dict[str, str | None] = {
-    "shipped": None,
-    "tuned": "train/hyperparams/envelope/{algo}.yml",
-}
+HYPERPARAMETERS = {"shipped": None, "tuned": "train/hyperparams/envelope/{algo}.yml"}
 
 #: Every envelope policy the figure and the README headline (``envelope-headline``) show, in
 #: the figure's drawing and legend order: (the measurement that stores its runs, algo, a key of

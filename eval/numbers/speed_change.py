@@ -14,13 +14,7 @@ from tandem_env.envs.speed_change_config import SpeedChangeConfig
 SPEED_CHANGE_EPISODES = 32
 SPEED_CHANGE_COMMAND = f"python -m eval speed-change --episodes {SPEED_CHANGE_EPISODES}"
 #: The optima's metrics the table shows: info keys of a level-flight step (docs/envs.md).
-OPTIMUM_METRICS: tuple[str, ...] = (
-    "efficiency",
-    "power_per_mass",
-    "lift_to_weight",
-    "thrust",
-    "drag",
-)
+OPTIMUM_METRICS = ("efficiency", "power_per_mass", "lift_to_weight", "thrust", "drag")
 
 
 def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
