@@ -120,8 +120,7 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
         f"{'compiled' if args.compile else 'eager'}, {torch.get_num_threads()} CPU threads; "
         + machine()
     )
-    x_all = torch.tensor(strokes, dtype=dtype, device=device)
-    v_all = torch.tensor(speeds, dtype=dtype, device=device)
+    x_all, v_all = (torch.tensor(a, dtype=dtype, device=device) for a in (strokes, speeds))
     numbers: dict[str, Any] = {
         "torch": torch.__version__,
         "device": str(device),
@@ -165,9 +164,7 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     return numbers
 
 
-def accuracy(
-    args, torch_model, x_all, v_all, strokes: np.ndarray, speeds: np.ndarray
-) -> dict[str, Any]:
+def accuracy(args, torch_model, x_all, v_all, strokes, speeds) -> dict[str, Any]:
     """The torch results against numba's on up to 256 strokes: the largest relative
     difference of any field and, per headline metric, relative to its largest magnitude."""
     import torch
@@ -195,9 +192,7 @@ def accuracy(
     return {"strokes": n, "largest_relative": worst, "field": worst_name, "scaled": scaled}
 
 
-def gradient_cost(
-    args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndarray
-) -> dict[str, Any]:
+def gradient_cost(args, torch_model, x_all, strokes, speeds) -> dict[str, Any]:
     """One autograd gradient against one batched central difference of the numba model."""
     columns = np.flatnonzero(~DISCRETE)
     step = 1e-6 * (UPPER - LOWER)[columns]
