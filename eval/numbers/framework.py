@@ -148,10 +148,9 @@ def kernels_line(data: dict[str, Any]) -> str:
 def agreed(values: Sequence[float], form: str) -> str:
     """One number measured under several kernels as shown: ``form`` of it where every kernel
     gives the same text, else their range, ``min–max``."""
-    texts = {form.format(v) for v in values}
-    return (
-        texts.pop() if len(texts) == 1 else f"{form.format(min(values))}–{form.format(max(values))}"
-    )
+    if len(texts := {form.format(v) for v in values}) == 1:
+        return texts.pop()
+    return f"{form.format(min(values))}–{form.format(max(values))}"
 
 
 def within_shown(value: float, values: Sequence[float], form: str) -> bool:
