@@ -29,6 +29,7 @@ ENV_ID = "TandemWing/LevelFlight-v0"
 ALGOS: tuple[tuple[str, int], ...] = (("ppo", 300_000), ("sac", 100_000))
 SEEDS: tuple[int, ...] = (0, 1, 2, 3, 4)
 ENVELOPE = "speed_range=(0.25, 2.0)"
+AMORTISED = "amortised"
 FIGURE = Path("docs") / "figures" / "rl_baselines_scores.png"
 # One core per training run, two at a time (torch and numba would each take both otherwise).
 _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
@@ -49,8 +50,10 @@ POLICIES: tuple[tuple[str, str, str], ...] = (
 
 
 def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str) -> list[str]:
-    """The documented envelope training command of ``algo`` with the ``hyperparams`` of
-    :data:`HYPERPARAMETERS` (``-f`` is added)."""
+    """The documented training command of ``algo``: the envelope's with the ``hyperparams`` of
+    :data:`HYPERPARAMETERS`, or the amortised policy's (``-f`` is added)."""
+    if algo == AMORTISED:
+        return f"python -m train --algo {algo} --env {ENV_ID} --seed {seed} --verbose 0".split()
     conf = HYPERPARAMETERS[hyperparams]
     return [
         *f"python -m train --algo {algo} --env {ENV_ID} --seed {seed} -n {steps}".split(),
@@ -59,13 +62,12 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
     ]
 
 
-def score_run(
-    command: list[str], algo: str, steps: int, seed: int, folder: Path, variant: str = ""
-) -> dict[str, Any]:
-    """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition
-    through ``python -m train.envelope``; ``variant``: the hyperparameters."""
+def score_run(algo: str, steps: int, seed: int, variant: str, folder: Path) -> dict[str, Any]:
+    """Train by :func:`train_command` (``variant``: the hyperparameters) into ``folder``, then
+    score its stroke at each held-out condition through ``python -m train.envelope``."""
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
-    seconds = framework.run_command([*command, "-f", str(logs)], _ONE_CORE)
+    command = [*train_command(algo, steps, seed, variant), "-f", str(logs)]
+    seconds = framework.run_command(command, _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
     envelope = ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out)]
@@ -88,20 +90,17 @@ def score_run(
 def measure() -> dict[str, Any]:
     """Train and score every (algo, seed), two runs at a time."""
     tasks = [
-        (train_command(algo, steps, seed, hp), algo, steps, seed, hp)
-        for hp in HYPERPARAMETERS
-        for algo, steps in ALGOS
-        for seed in SEEDS
+        (algo, steps, seed, hp) for hp in HYPERPARAMETERS for algo, steps in ALGOS for seed in SEEDS
     ]
     return {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": score_runs("rl-baselines", tasks)}
 
 
-def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> list[Any]:
-    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time; the
-    figure is redrawn with them as measurement ``name``'s runs."""
+def score_runs(name: str, tasks: list[tuple[str, int, int, str]]) -> list[Any]:
+    """:func:`score_run` of each (algo, steps, seed, variant), two at a time; the figure is
+    redrawn with them as measurement ``name``'s runs."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         with ThreadPoolExecutor(max_workers=2) as pool:
-            runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
+            runs = list(pool.map(lambda t: score_run(*t, Path(tmp)), tasks))
     write_figure(framework.ROOT / FIGURE, {name: runs})
     return runs
 
@@ -164,12 +163,11 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     """Score against speed per policy of :data:`POLICIES`: each seed thin, the median thick (the
     shipped hyperparameters' median only, dashed); ``fresh``: runs just measured, by name."""
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
-    stored = {
+    measured = {
         name: framework.load(name)["runs"]
         for name in dict.fromkeys(name for name, _, _ in POLICIES)
         if framework.json_path(name).is_file()
-    }
-    measured = {**stored, **fresh}
+    } | fresh
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
     for name, algo, hp in POLICIES:
         runs = runs_of(measured.get(name, []), algo, hp)
@@ -196,17 +194,9 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     save(fig, path)  # atomically, its folder made if need be
 
 
-AMORTISED = "amortised"
-
-
-def amortised_command(seed: int | str) -> list[str]:
-    """The documented amortised training command (``-f`` is added)."""
-    return f"python -m train --algo {AMORTISED} --env {ENV_ID} --seed {seed} --verbose 0".split()
-
-
 def measure_amortised() -> dict[str, Any]:
     """Train and score every seed of the amortised policy, two runs at a time."""
-    tasks = [(amortised_command(seed), AMORTISED, 0, seed, "") for seed in SEEDS]
+    tasks = [(AMORTISED, 0, seed, "") for seed in SEEDS]
     return {"env_id": ENV_ID, "runs": score_runs("amortised-scores", tasks)}
 
 
@@ -214,7 +204,7 @@ def render_amortised(data: dict[str, Any]) -> str:
     return (
         score_table("training", [(AMORTISED, "regression + 600 gradient steps", data["runs"])])
         + "\n\nThe same held-out speeds and scoring; "
-        f"`{shlex.join(amortised_command('SEED'))}` with seeds {list(SEEDS)}, then `python -m "
+        f"`{shlex.join(train_command(AMORTISED, 0, 'SEED', ''))}` with seeds {list(SEEDS)}, then `python -m "
         f"train.envelope --conditions ...`. {framework.machine_line(data, 'amortised-scores')}\n"
     )
 
