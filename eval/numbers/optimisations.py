@@ -65,13 +65,8 @@ def _arguments(row: ComparisonRow, method: str) -> tuple[str, ...]:
 def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one ``{seed, objective, ...}`` per seed."""
     return [
-        {
-            "seed": r.seed,
-            "objective": r.objective,
-            "feasible": bool(r.feasible),
-            "evaluations": r.evaluations,
-            "wall_time_s": r.wall_time,
-        }
+        {"seed": r.seed, "objective": r.objective, "feasible": bool(r.feasible)}
+        | {"evaluations": r.evaluations, "wall_time_s": r.wall_time}
         for r in framework.run_seeds(_arguments(row, method), seeds)
     ]
 
