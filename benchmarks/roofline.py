@@ -113,8 +113,7 @@ def operation_counts() -> dict[str, dict[str, int]]:
     sweep["flop"] += 4  # (F_c·e_c·z + F_n·e_n·z)·w and its running sum
     slope = Counter(counted(induction.normal_force_rate_at, u, v, *force_args))
     slope["flop"] += 2  # the weight and the running sum
-    span = np.empty((4, 1), dtype=object)
-    span[:] = Counted(0.0)
+    span = np.full((4, 1), Counted(0.0), dtype=object)
     samples = np.array([[Counted(x)] for x in (fc, fn, u, v)], dtype=object)
     integrate = counted(cycle.add_to_span, coef, samples, section, Counted(30.0), span)
     return {"sweep": dict(sweep), "slope": dict(slope), "span": integrate}
