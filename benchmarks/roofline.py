@@ -201,13 +201,6 @@ def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
     }
 
 
-def clock_ghz() -> float:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("cpu MHz"):
-            return float(line.partition(":")[2]) / 1e3
-    return float("nan")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--commit", default="8e3cf19")
@@ -224,7 +217,9 @@ def main() -> None:
     from tandem_env.physics import cycle, model
 
     numbers = {key: getattr(args, key) for key in ("commit", "rounds", "calls")} | {"batch": 1024}
-    numbers |= {"load_before": os.getloadavg()[0], "ghz": clock_ghz(), **machine_limits()}
+    mhz = [x for x in Path("/proc/cpuinfo").read_text().splitlines() if x.startswith("cpu MHz")]
+    ghz = float(mhz[0].partition(":")[2]) / 1e3 if mhz else float("nan")
+    numbers |= {"load_before": os.getloadavg()[0], "ghz": ghz, **machine_limits()}
     call, strokes, options = workload(te)
     inputs = model.parametric_kernel_inputs(strokes, options.n_time)
     out = model.run_kernel(*inputs[:5], np.ones(1024), np.zeros(1024), te.DRAGONFLY, options).means
