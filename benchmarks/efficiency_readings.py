@@ -78,12 +78,9 @@ class Case:
 
 def cases() -> list[Case]:
     """Part 1 (certified) for every reading, then part 2 (the paper-era searches)."""
-    readings = [(t, p) for t in THRUST for p in POWER]
-    searches = [reading.search for reading in PAPER_SEARCHES if reading.search is not None]
-    out = [Case(t, p, CERTIFIED) for t, p in readings]
-    out += [Case(t, p, s) for s in searches for t, p in readings]
-    out.append(Case("sign", "absolute", LINEAR_INERTIA))
-    return out
+    searches = [CERTIFIED, *(r.search for r in PAPER_SEARCHES if r.search is not None)]
+    out = [Case(t, p, s) for s in searches for t in THRUST for p in POWER]
+    return [*out, Case("sign", "absolute", LINEAR_INERTIA)]
 
 
 def _label(search: Search) -> str:
