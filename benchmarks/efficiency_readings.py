@@ -54,6 +54,8 @@ POWER = {
 LINEAR_INERTIA = Search(
     "pso", swarm_size=40, iterations=50, settings={"polish": "none", "inertia": "linear-decreasing"}
 )
+#: The reading under which the paper's F̄_v matches converged optima (docs/reproduction.md).
+HOVER_NONE = next(r for r in SINGLES if r.name == "hover-none")
 
 
 @dataclass(frozen=True)
@@ -165,10 +167,6 @@ def _meta(started: tuple[Any, float], scheduler: str | None) -> dict[str, Any]:
         "scheduler": scheduler or "serial",
         "wall_time_s": round(time.perf_counter() - start, 1),
     }
-
-
-#: The reading under which the paper's F̄_v matches converged optima (docs/reproduction.md).
-HOVER_NONE = next(r for r in SINGLES if r.name == "hover-none")
 
 
 def claim_readings() -> tuple[Reading, ...]:

@@ -30,6 +30,8 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+COUNTS: dict[str, int] = {}
+"""What :class:`Counted` numbers counted, by kind of operation."""
 
 
 def workload(te, batch: int = 1024):
@@ -56,9 +58,6 @@ def worker() -> None:
 
 class Counted(float):
     """A float that counts the arithmetic done on it (:data:`COUNTS`)."""
-
-
-COUNTS: dict[str, int] = {}
 
 
 def _op(kind: str, fn):

@@ -20,6 +20,7 @@ from eval.numbers import framework
 MODEL_THROUGHPUT = framework.Benchmark(("benchmarks/model_throughput.py",))
 INFLOW_SOLVE = framework.Benchmark(("benchmarks/inflow_solve.py",))
 ENV_THROUGHPUT = framework.Benchmark(("benchmarks/env_throughput.py",))
+ROOFLINE = framework.Benchmark(("benchmarks/roofline.py",))
 _TORCH = "benchmarks/model_throughput.py --backend torch --threads 1 --repeats 3".split()
 _ONE_THREAD = (("OMP_NUM_THREADS", "1"),)
 TORCH_EAGER = framework.Benchmark(
@@ -30,6 +31,14 @@ TORCH_COMPILED = framework.Benchmark(
     (*_TORCH, "--compile", "--batches", "64", "1024", "--induction", "coupled"), _ONE_THREAD
 )
 INDUCTIONS: tuple[str, ...] = ("coupled", "isolated", "none")
+QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
+"""The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
+added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
+TRAINING_COMMAND: tuple[str, ...] = tuple(
+    "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
+    "--env-kwargs speed=1.5".split()
+)
+"""The README's command; ``-f`` (an empty log folder) is added."""
 
 
 def by_case(rows: Iterable[dict[str, Any]]) -> dict[tuple[int, str], dict[str, Any]]:
@@ -189,9 +198,6 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-ROOFLINE = framework.Benchmark(("benchmarks/roofline.py",))
-
-
 def render_roofline(data: dict[str, Any]) -> str:
     lines = framework.table(
         [
@@ -240,16 +246,6 @@ def render_roofline(data: dict[str, Any]) -> str:
         *framework.footer(data, "roofline", data["command"]),
     ]
     return "\n".join(lines) + "\n"
-
-
-QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
-"""The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
-added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
-TRAINING_COMMAND: tuple[str, ...] = tuple(
-    "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
-    "--env-kwargs speed=1.5".split()
-)
-"""The README's command; ``-f`` (an empty log folder) is added."""
 
 
 def measure_quick_preset() -> dict[str, Any]:
