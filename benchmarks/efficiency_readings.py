@@ -108,10 +108,6 @@ def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
     }
     if not eta:
         return row | {"median_eta": None}
-    best = max(feasible, key=lambda r: r.objective)
-    # a polish that converged ends at a constrained local optimum (KKT residual in the record)
-    certified = [r for r in feasible if r.certificate.get("converged") is True]
-    low, high = eta[0], eta[-1]
     median = statistics.median(eta)
     thrust = statistics.median(r.metrics["thrust"] for r in feasible) / DRAGONFLY.weight
     power = statistics.median(r.metrics["power_per_mass"] for r in feasible)
@@ -120,12 +116,13 @@ def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
     eta_d = [100 * r.objective * r.metrics["drag"] / r.metrics["thrust"] for r in feasible]
     return row | {
         "median_eta": round(median, 2),
-        "min_eta": round(low, 2),
-        "max_eta": round(high, 2),
-        "best_seed": best.seed,
+        "min_eta": round(eta[0], 2),
+        "max_eta": round(eta[-1], 2),
+        "best_seed": max(feasible, key=lambda r: r.objective).seed,
         "median_over_paper": round(median / PAPER_ETA, 2),
-        "paper_in_range": low <= PAPER_ETA <= high,
-        "polish_converged": len(certified),
+        "paper_in_range": eta[0] <= PAPER_ETA <= eta[-1],
+        # a polish that converged ends at a constrained local optimum (KKT residual in the record)
+        "polish_converged": sum(r.certificate.get("converged") is True for r in feasible),
         "median_T_over_W": round(thrust, 3),
         "median_P_per_mass": round(power, 1),
         "median_eta_T_is_D": round(statistics.median(eta_d), 2),
