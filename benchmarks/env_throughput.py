@@ -64,9 +64,8 @@ def main() -> None:
 
     venv = make_sb3_vec_env(ENV_ID, n_envs=n, seed=0)
     venv.reset()
-    rows.append(
-        (f"SB3 adapter (TandemVecEnv), n = {n}", rate(partial(venv.step, actions), seconds, n))
-    )
+    sb3 = rate(partial(venv.step, actions), seconds, n)
+    rows.append((f"SB3 adapter (TandemVecEnv), n = {n}", sb3))
     venv.close()
 
     reference = rows[1][1]
@@ -74,13 +73,9 @@ def main() -> None:
     print(f"{'':{width}}  strokes/s   vs evaluate(B={n})")
     for name, value in rows:
         print(f"{name:{width}}  {value:9.0f}   {value / reference:6.1%}")
-    table = [
-        {"case": name, "strokes_per_s": value, "of_reference": value / reference}
-        for name, value in rows
-    ]
-    write_numbers(
-        args.json, {"num_envs": n, "seconds": seconds, "reference": rows[1][0], "rows": table}
-    )
+    table = [{"case": c, "strokes_per_s": v, "of_reference": v / reference} for c, v in rows]
+    numbers = {"num_envs": n, "seconds": seconds, "reference": rows[1][0], "rows": table}
+    write_numbers(args.json, numbers)
 
 
 if __name__ == "__main__":
