@@ -41,12 +41,11 @@ def render_document(text: str, rendered: dict[str, str]) -> str:
     yet: left as it is; a name no measurement has: KeyError)."""
 
     def body(match: re.Match[str]) -> str:
-        name = match["name"]
-        if name not in rendered and name in MEASUREMENTS:
+        if (name := match["name"]) in rendered:
+            return match.group(1) + rendered[name] + match.group(4)
+        if name in MEASUREMENTS:
             return match.group(0)
-        if name not in rendered:
-            raise KeyError(f"unknown numbers region {name!r}; known: {sorted(rendered)}")
-        return match.group(1) + rendered[name] + match.group(4)
+        raise KeyError(f"unknown numbers region {name!r}; known: {sorted(rendered)}")
 
     return framework.REGION.sub(body, text)
 
