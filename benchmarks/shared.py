@@ -25,9 +25,7 @@ def seconds_per_call(
 ) -> tuple[float, float]:
     """Wall and CPU (all threads of this process) seconds per call, over ``calls`` back-to-back
     calls, more while they last less than ``min_seconds``."""
-    count = 0
-    start = time.perf_counter()
-    start_cpu = time.process_time()
+    count, start, start_cpu = 0, time.perf_counter(), time.process_time()
     while count < calls or time.perf_counter() - start < min_seconds:
         call()
         count += 1

@@ -6,6 +6,7 @@ vortex lattice's."""
 
 from __future__ import annotations
 
+import contextlib
 import math
 import re
 import tempfile
@@ -52,10 +53,8 @@ GENERALISATION_FILES: dict[str, Path] = {
 def typed(text: Any) -> Any:
     """A CSV cell's text as the run's value (``4x8`` and ``free`` stay text)."""
     for kind in (int, float):
-        try:
+        with contextlib.suppress(TypeError, ValueError):
             return kind(text)
-        except (TypeError, ValueError):
-            pass
     return text
 
 
