@@ -66,9 +66,8 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     for key in dict.fromkeys(case_of(r) for r in rows):
         mine = [r for r in out if case_of(r) == key]
         lags = tuple(float(r["lag_deg"]) for r in mine)
-        model = ours(
-            Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags), DRAGONFLY
-        )
+        case = Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags)
+        model = ours(case, DRAGONFLY)
         for index, row in enumerate(mine):
             row.update(model_cells(model, index))
     return out
