@@ -21,11 +21,9 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
     """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
     defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed,
     computed now (the record cache off: a cached optimum may come from another BLAS kernel)."""
+    grid = speed_change.STEADY_GRID if speeds is None else speeds
     records = speed_change.optima_records(
-        SpeedChangeConfig.from_kwargs(),
-        speeds=speed_change.STEADY_GRID if speeds is None else speeds,
-        progress=False,
-        record_cache=False,
+        SpeedChangeConfig.from_kwargs(), speeds=grid, progress=False, record_cache=False
     )
     return [
         {
