@@ -61,8 +61,7 @@ def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
     """Run the documented ``eval optimize`` command into a fresh folder with the record cache
     off (measured now, wall times too); its records, by seed."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        command = optimize_command(arguments, seeds).split()
-        run_command([*command, "--out", out, "--no-cache"])
+        run_command([*optimize_command(arguments, seeds).split(), "--out", out, "--no-cache"])
         records = sorted(read_record_files([out]), key=lambda r: r.seed)
     if [r.seed for r in records] != list(seeds):
         raise RuntimeError(f"expected records of seeds {list(seeds)}, found {records!r}")
@@ -106,10 +105,9 @@ def blas_kernel() -> str:
 def other_kernels() -> list[str]:
     """The kernels of :data:`OTHER_BLAS_KERNELS` but the machine's own (none where numpy's BLAS
     is not OpenBLAS: its kernel cannot be chosen)."""
-    own = blas_kernel()
     if not any(lib["internal_api"] == "openblas" for lib in threadpool_info()):
         return []
-    return [kernel for kernel in OTHER_BLAS_KERNELS if kernel.lower() != own.lower()]
+    return [kernel for kernel in OTHER_BLAS_KERNELS if kernel.lower() != blas_kernel().lower()]
 
 
 def measure_other_kernels(name: str) -> dict[str, Any]:
