@@ -81,21 +81,14 @@ def render(data: dict[str, Any]) -> str:
     reused = [inv for inv in data["invocations"] if inv not in worked]
     best = max(int(r["agree"]) for r in rows)
     heads = [title for title, _ in READINGS_COLUMNS]
+    papers = [" / ".join(paper.get(HEADLINES[c][0], "–") for c in cs) for _, cs in READINGS_COLUMNS]
     lines = [
         *table_head(["reading", "changes from the default", *COUNTS.values(), *heads]),
-        "| paper | "
-        + "| " * (1 + len(COUNTS))
-        + " | ".join(
-            " / ".join(paper.get(HEADLINES[c][0], "–") for c in columns)
-            for _, columns in READINGS_COLUMNS
-        )
-        + " |",
+        "| paper | " + "| " * (1 + len(COUNTS)) + " | ".join(papers) + " |",
     ]
     for r in rows:
         mark = "**" if int(r["agree"]) == best else ""
-        numbers = [
-            " / ".join(f"{float(r[c]):.3g}" for c in columns) for _, columns in READINGS_COLUMNS
-        ]
+        numbers = [" / ".join(f"{float(r[c]):.3g}" for c in cs) for _, cs in READINGS_COLUMNS]
         # an older run has no not_identifiable count
         counts = " | ".join(r.get(k, "–") for k in list(COUNTS)[1:])
         lines.append(
