@@ -97,10 +97,8 @@ def _table(
     ]
     lines += [x for text in (note, framework.kernels_line(data)) if text for x in ("", text)]
     commands = (row["command"] for row in data["rows"])
-    return (
-        "\n".join(lines + framework.footer(data, name, *commands, heading="Each row's command:"))
-        + "\n"
-    )
+    lines += framework.footer(data, name, *commands, heading="Each row's command:")
+    return "\n".join(lines) + "\n"
 
 
 def measure_comparison() -> dict[str, Any]:
