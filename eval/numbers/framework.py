@@ -240,9 +240,10 @@ def machine_line(data: dict[str, Any], name: str) -> str:
     before, after = data["machine_before"], data["machine_after"]
     cpu = before.get("cpu_model", before["processor"])  # an older measurement has none
     return (
-        f"Measured {before['date']} on {before['cpus']} CPUs ({cpu}, Python {before['python']}), "
-        f"load average (1 min) {before['load_average_1min']} before and {after['load_average_1min']} "
-        f"after; regenerate with `python -m eval numbers --only {name}`."
+        f"Measured {before['date']} on {before['cpus']} CPUs ({cpu}, Python "
+        f"{before['python']}), load average (1 min) {before['load_average_1min']} before and "
+        f"{after['load_average_1min']} after; regenerate with `python -m eval numbers --only "
+        f"{name}`."
     )
 
 
