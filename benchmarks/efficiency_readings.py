@@ -250,8 +250,9 @@ def main() -> int:
         meta["measured_by"] = before.get("measured_by", before)
     write_json_atomic(path, {"meta": meta, "rows": rows})
     print(
-        f"{summary.total} runs ({summary.ran} run, {summary.reused} reused) in {meta['wall_time_s']:.0f} s; "
-        f"load {meta['load_average_before']} -> {meta['load_average_after']}; wrote {path}",
+        f"{summary.total} runs ({summary.ran} run, {summary.reused} reused) in "
+        f"{meta['wall_time_s']:.0f} s; load {meta['load_average_before']} -> "
+        f"{meta['load_average_after']}; wrote {path}",
         file=sys.stderr,
     )
     return 0

@@ -179,7 +179,8 @@ def accuracy(args, torch_model, x_all, v_all, strokes, speeds) -> dict[str, Any]
         relative[name] = float(np.max(np.abs(b - a) / np.maximum(np.abs(a), 1e-6)))
     worst_name, worst = max(relative.items(), key=lambda item: item[1])
     print(
-        f"\nagainst numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"
+        f"\nagainst numba on {n} strokes (coupled): largest relative difference {worst:.2g} "
+        f"({worst_name})"
     )
     scaled = {}
     for name in ("lift_to_weight", "thrust", "drag", "power", "efficiency", "fore_inflow"):

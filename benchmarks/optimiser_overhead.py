@@ -130,7 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     for k, t in enumerate(timings):
         print(
             f"{k:>4} {t.iterations:>8} {t.total:>10.3f} {t.model:>10.3f} {t.env_step:>13.3f} "
-            f"{t.ask_tell:>13.4f} {t.evaluations / t.total:>9.0f} {(t.total - t.env_step) / t.total:>8.2%}"
+            f"{t.ask_tell:>13.4f} {t.evaluations / t.total:>9.0f} "
+            f"{(t.total - t.env_step) / t.total:>8.2%}"
         )
     total, env_step, model, ask_tell, package, _, iterations = (
         sum(values) for values in zip(*map(astuple, timings), strict=True)

@@ -204,8 +204,9 @@ def render_amortised(data: dict[str, Any]) -> str:
     return (
         score_table("training", [(AMORTISED, "regression + 600 gradient steps", data["runs"])])
         + "\n\nThe same held-out speeds and scoring; "
-        f"`{shlex.join(train_command(AMORTISED, 0, 'SEED', ''))}` with seeds {list(SEEDS)}, then `python -m "
-        f"train.envelope --conditions ...`. {framework.machine_line(data, 'amortised-scores')}\n"
+        f"`{shlex.join(train_command(AMORTISED, 0, 'SEED', ''))}` with seeds {list(SEEDS)}, then "
+        "`python -m train.envelope --conditions ...`. "
+        f"{framework.machine_line(data, 'amortised-scores')}\n"
     )
 
 
