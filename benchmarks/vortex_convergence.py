@@ -69,11 +69,8 @@ def main() -> None:
     for coarse, fine in COMPARISONS:
         x, y = results[coarse].lift_to_weight, results[fine].lift_to_weight
         effect = y - alone.lift_to_weight
-        counted = (
-            results[coarse].induction_converged
-            & results[fine].induction_converged
-            & (np.abs(effect) > STRONG * np.abs(y))
-        )
+        converged = results[coarse].induction_converged & results[fine].induction_converged
+        counted = converged & (np.abs(effect) > STRONG * np.abs(y))
         for low, high in BANDS:
             chosen = counted & (speeds >= low) & (speeds < high)
             n = int(chosen.sum())
