@@ -87,14 +87,9 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
             *(framework.median_range(ratios[batch], k) for k in ("wall", "cpu")),
         ]
 
-    lines = framework.table(
-        [
-            "batch",
-            *(f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS),
-            *(f"coupled / none, {k}: median (range)" for k in ("wall", "CPU")),
-        ],
-        map(cells, sorted(ratios)),
-    )
+    heads = [f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS]
+    heads += [f"coupled / none, {k}: median (range)" for k in ("wall", "CPU")]
+    lines = framework.table(["batch", *heads], map(cells, sorted(ratios)))
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"
@@ -199,12 +194,10 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
 
 
 def render_roofline(data: dict[str, Any]) -> str:
+    heads = [f"{commit}: ms per call, wall / CPU" for commit in (data["commit"], "now")]
+    heads += [f"speed-up, {k}: median (range)" for k in ("wall", "CPU")]
     lines = framework.table(
-        [
-            "numba threads",
-            *(f"{commit}: ms per call, wall / CPU" for commit in (data["commit"], "now")),
-            *(f"speed-up, {k}: median (range)" for k in ("wall", "CPU")),
-        ],
+        ["numba threads", *heads],
         (
             [
                 r["threads"],
