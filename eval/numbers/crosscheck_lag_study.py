@@ -233,15 +233,14 @@ def render(data: dict[str, Any]) -> str:
     entries = summary(rows)
     names = readings(rows)
     lags = entries[0]["lags"]
+    heads = [x for e in entries for x in (f"{case_label(e['case'])}: UVLM", *names)]
     lines = [
         f"Written by `{data['command']}` (its `crosscheck.csv`, copied to "
         "[`docs/crosscheck/lag_study.csv`](crosscheck/lag_study.csv)). The hind-wing's change "
         "of vertical force due to the fore-wing [%], at each lag ΔΦ (+: the hind-wing leads); "
         "the mean reading gives one value at every lag:",
         "",
-        *table_head(
-            ["lag ΔΦ", *(x for e in entries for x in (f"{case_label(e['case'])}: UVLM", *names))]
-        ),
+        *table_head(["lag ΔΦ", *heads]),
     ]
     for i, lag in enumerate(lags):
         columns = [[e["uvlm"], *(e["readings"][n]["changes"] for n in names)] for e in entries]
