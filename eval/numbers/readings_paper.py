@@ -57,12 +57,10 @@ def measure() -> dict[str, Any]:
 
 def _invocation_line(invocation: dict[str, Any]) -> str:
     """One invocation of a readings run: when, where, and each phase's work and time."""
-    where = (
-        f", {invocation['cpus']} CPUs, load average (1 min) "
-        + " → ".join(str(x) for x in invocation["load_average_1min"])
-        if "cpus" in invocation
-        else ""
-    )
+    where = ""
+    if "cpus" in invocation:  # an older run's first invocation has none
+        loads = " → ".join(str(x) for x in invocation["load_average_1min"])
+        where = f", {invocation['cpus']} CPUs, load average (1 min) {loads}"
     phases = "; ".join(
         f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} reused) in "
         f"{framework.minutes(p['wall_time_s'], padded=True)}"
