@@ -65,6 +65,7 @@ def render(data: dict[str, Any]) -> str:
     optima = data["optima"]
     first = data["optima"][0]
     random = next(r for r in data["rows"] if r["policy"] == "random")
+    by_kernel = [view["optima"] for view in framework.kernel_views(data).values()]
     lines = [
         speed_change.policy_summary_markdown(data["rows"]).rstrip("\n"),
         "",
@@ -81,9 +82,7 @@ def render(data: dict[str, Any]) -> str:
             f"{framework.agreed([k['lift_to_weight'] for k in o], '{:.3f}')} | "
             f"{framework.agreed([1e3 * (k['thrust'] - k['drag']) for k in o], '{:+.3f}')} | "
             f"{'yes' if all(k['feasible'] for k in o) else 'no'} |"
-            for o in zip(
-                *(view["optima"] for view in framework.kernel_views(data).values()), strict=True
-            )
+            for o in zip(*by_kernel, strict=True)
         ),
         "",
         framework.kernels_line(data),
