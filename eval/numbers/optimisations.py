@@ -169,11 +169,8 @@ def _bounds_text(rows: Sequence[dict[str, Any]]) -> str:
 
 
 def render_species(data: dict[str, Any]) -> str:
-    table = {p.name: p for p in TABLE_4}
-    unit = lambda p: "°" if p.unit == "deg" else p.unit  # noqa: E731
-    parameters = [
-        (n, f"{table[n].symbol} [{unit(table[n])}]", "{:.1f}") for n in SPECIES_PARAMETERS
-    ]
+    shown = {p.name: f"{p.symbol} [{'°' if p.unit == 'deg' else p.unit}]" for p in TABLE_4}
+    parameters = [(n, shown[n], "{:.1f}") for n in SPECIES_PARAMETERS]
     columns = [*SPECIES_METRICS, *parameters]  # (name, heading, format) of each best-seed column
 
     def cells(row: dict, by_kernel: list, seed: tuple[str, ...]) -> str:
