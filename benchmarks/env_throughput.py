@@ -50,10 +50,9 @@ def main() -> None:
     env.reset(seed=0)
     single = rate(lambda: (env.reset(), env.step(actions[0])), seconds, 1)
     rows.append(("single env (gym.make), reset + step", single))
+    vectorised = {"num_envs": n, "vectorization_mode": "vector_entry_point"}
     for mode, label in (("NextStep", "next-step autoreset"), ("SameStep", "same-step autoreset")):
-        envs = gym.make_vec(
-            ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", autoreset_mode=mode
-        )
+        envs = gym.make_vec(ENV_ID, **vectorised, autoreset_mode=mode)
         envs.reset(seed=0)
         # Count the strokes actually evaluated (terminated envs), not the reset steps.
         vector = rate(lambda: int(envs.step(actions)[2].sum()), seconds)  # noqa: B023

@@ -200,9 +200,8 @@ def gradient_cost(args, torch_model, x_all, strokes, speeds) -> dict[str, Any]:
     probes = np.repeat(strokes[:1], 1 + 2 * columns.size, axis=0)
     probes[1::2, columns] += np.diag(step)
     probes[2::2, columns] -= np.diag(step)
-    central = min(
-        call_times(lambda: te.evaluate(probes, speeds[0], options=PAPER), args.repeats)[0]
-    )
+    central_difference = partial(te.evaluate, probes, speeds[0], options=PAPER)
+    central = min(call_times(central_difference, args.repeats)[0])
     print(
         f"\ngradient of power with respect to the 28 parameters, per stroke: central difference "
         f"of numba ({probes.shape[0]} strokes in one call) {1e3 * central:.1f} ms"

@@ -171,9 +171,8 @@ def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
 
     angles, weights, _, beta, _, _ = inputs
     speed, path = np.ones(len(strokes)), np.zeros(len(strokes))
-    history = model.run_kernel(
-        *inputs[:5], speed, path, te.DRAGONFLY, options, keep=model.Kept(history=True)
-    ).history
+    kept = model.Kept(history=True)
+    history = model.run_kernel(*inputs[:5], speed, path, te.DRAGONFLY, options, keep=kept).history
     coef = np.empty((options.n_time, blade.N_COEF))
     out = np.empty(cycle.N_WING_OUT)
     tables = cycle.fourier_tables(options.n_time)

@@ -83,9 +83,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             data = MEASUREMENTS[name].measure()
             if MEASUREMENTS[name].blas_dependent:
                 data |= framework.measure_other_kernels(name)
-            framework.save(
-                name, {**data, "machine_before": before, "machine_after": framework.machine()}
-            )
+            data |= {"machine_before": before, "machine_after": framework.machine()}
+            framework.save(name, data)
     rendered = rendered_all()
     for path in framework.DOCUMENTS:
         text = path.read_text(encoding="utf-8")

@@ -36,9 +36,8 @@ def render_convergence(data: dict[str, Any]) -> str:
             text += f" (p95 {error['p95']:.2g} %)"
         return text
 
-    lines = table_head(
-        ["V [m/s]", *(f"{title} median / max" for title in CONVERGENCE_COLUMNS.values())]
-    )
+    heads = [f"{title} median / max" for title in CONVERGENCE_COLUMNS.values()]
+    lines = table_head(["V [m/s]", *heads])
     for r in rows:
         speed = "0 (hover)" if r["speed"] == 0.0 else f"{r['speed']:.1f}"
         cells = (cell(r["error_percent"][name]) for name in CONVERGENCE_COLUMNS)

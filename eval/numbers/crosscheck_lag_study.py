@@ -177,9 +177,8 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     and its first harmonic's phase, against the UVLM's."""
     out = []
     for case in dict.fromkeys(report.case_of(r) for r in rows):
-        mine = sorted(
-            (r for r in rows if report.case_of(r) == case), key=lambda r: float(r["lag_deg"])
-        )
+        mine = [r for r in rows if report.case_of(r) == case]
+        mine.sort(key=lambda r: float(r["lag_deg"]))
         lags = [float(r["lag_deg"]) for r in mine]
         uvlm = [float(r["uvlm_hind_change_pct"]) for r in mine]
         uvlm_loss = largest_loss_lag(lags, uvlm)

@@ -71,9 +71,8 @@ def score_run(algo: str, steps: int, seed: int, variant: str, folder: Path) -> d
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
     envelope = ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out)]
-    framework.run_command(
-        [*envelope, "--conditions", *map(str, held_out_conditions(ENV_ID))], _ONE_CORE
-    )
+    conditions = map(str, held_out_conditions(ENV_ID))
+    framework.run_command([*envelope, "--conditions", *conditions], _ONE_CORE)
     rows = framework.read_rows(out / "envelope.csv")
     return {
         "algo": algo,
