@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import astuple, dataclass
+from functools import partial
 from typing import Any
 
 import cmaes
@@ -113,11 +114,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3, help="runs (seeds 0..repeats-1)")
     args = parser.parse_args(argv)
     settings = args.method_config
-    time_run(args.method, settings, args.task, 200, 0)  # warm-up: numba cache, env construction
-    timings = [
-        time_run(args.method, settings, args.task, args.evaluations, seed)
-        for seed in range(args.repeats)
-    ]
+    run = partial(time_run, args.method, settings, args.task)
+    run(200, 0)  # warm-up: numba cache, env construction
+    timings = [run(args.evaluations, seed) for seed in range(args.repeats)]
     env_kwargs, _ = CONDITIONS[args.task]
     print(
         f"{args.method} {settings or ''} on {args.task} {env_kwargs}: {args.evaluations} "

@@ -75,11 +75,8 @@ def measure_rotation() -> dict[str, Any]:
     """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
     lift at least half the weight with π."""
     insect = tandem_env.DRAGONFLY
-    half = replace(
-        insect,
-        fore=replace(insect.fore, rotational_coefficient=math.pi / 2),
-        hind=replace(insect.hind, rotational_coefficient=math.pi / 2),
-    )
+    halved = {"rotational_coefficient": math.pi / 2}
+    half = replace(insect, fore=replace(insect.fore, **halved), hind=replace(insect.hind, **halved))
 
     def row(strokes: np.ndarray, speed: float) -> dict[str, Any]:
         paper = tandem_env.evaluate(strokes, speed, insect=insect).lift_to_weight

@@ -53,10 +53,9 @@ def render_model_throughput(data: dict[str, Any]) -> str:
     def cell(r: dict[str, Any]) -> str:
         return f"{framework.spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
 
-    lines = framework.table(
-        ["batch", *(f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions)],
-        ([batch, *(cell(rates[batch, i]) for i in inductions)] for batch in batches),
-    )
+    heads = [f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions]
+    rows = ([batch, *(cell(rates[batch, i]) for i in inductions)] for batch in batches)
+    lines = framework.table(["batch", *heads], rows)
     lines += [
         "",
         "Best of "
