@@ -151,8 +151,8 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def _meta(started: tuple[Any, float], scheduler: str | None) -> dict[str, Any]:
-    """Date, machine, load and command of a run just finished that ``started`` (load average,
-    ``time.perf_counter()``) (the docs quote them beside its numbers)."""
+    """Date, machine, load and command of a run just finished (``started``: the load average and
+    ``time.perf_counter()`` at its start); the docs quote them beside its numbers."""
     load_before, start = started
     return {
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
