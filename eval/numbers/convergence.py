@@ -75,8 +75,8 @@ def measure_rotation() -> dict[str, Any]:
     """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
     lift at least half the weight with π."""
     insect = tandem_env.DRAGONFLY
-    halved = {"rotational_coefficient": math.pi / 2}
-    half = replace(insect, fore=replace(insect.fore, **halved), hind=replace(insect.hind, **halved))
+    c_r = {"rotational_coefficient": math.pi / 2}
+    half = replace(insect, fore=replace(insect.fore, **c_r), hind=replace(insect.hind, **c_r))
 
     def row(strokes: np.ndarray, speed: float) -> dict[str, Any]:
         paper = tandem_env.evaluate(strokes, speed, insect=insect).lift_to_weight
