@@ -109,12 +109,8 @@ def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
     training time [s]."""
     scores = [s for r in runs for s in r["scores"]]
     feasible = [f for r in runs for f in r["feasible"]]
-    return (
-        statistics.median(scores),
-        min(scores),
-        sum(feasible) / len(feasible),
-        statistics.median(r["train_s"] for r in runs),
-    )
+    seconds = statistics.median(r["train_s"] for r in runs)
+    return statistics.median(scores), min(scores), sum(feasible) / len(feasible), seconds
 
 
 def runs_of(runs: list[dict[str, Any]], algo: str, hyperparams: str = "") -> list[dict[str, Any]]:
