@@ -235,13 +235,8 @@ def main() -> int:
     started = os.getloadavg(), time.perf_counter()
     jobs = [p for group in prepared.values() for p in group]
     summary = run_jobs(jobs, args.out, scheduler=args.scheduler, progress=False)
-    meta = _meta(started, args.scheduler) | {
-        "runs": summary.total,
-        "ran": summary.ran,
-        "reused": summary.reused,
-        "speed": SPEED,
-        "paper_eta": PAPER_ETA,
-    }
+    runs = {"runs": summary.total, "ran": summary.ran, "reused": summary.reused}
+    meta = _meta(started, args.scheduler) | runs | {"speed": SPEED, "paper_eta": PAPER_ETA}
     rows = [summarise(c, [summary.records[p.job.key] for p in g]) for c, g in prepared.items()]
     print(table(rows))
     path = Path(args.out) / "efficiency_readings.json"

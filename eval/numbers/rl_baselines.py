@@ -213,10 +213,8 @@ def measure_headline() -> dict[str, Any]:
         runs = runs_of(stored[name]["runs"], algo, hp)
         numbers = dict(zip(("median", "worst", "flies"), summary(runs), strict=False))
         rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), **numbers})
-    return {
-        "policies": rows,
-        "measured": {n: d["machine_before"]["date"] for n, d in stored.items()},
-    }
+    measured = {n: d["machine_before"]["date"] for n, d in stored.items()}
+    return {"policies": rows, "measured": measured}
 
 
 def render_headline(data: dict[str, Any]) -> str:
