@@ -103,10 +103,8 @@ def _table(
 
 def measure_comparison() -> dict[str, Any]:
     rows = [
-        {
-            "label": row.label,
-            "symbol": row.symbol,
-            "method": method,
+        {"label": row.label, "symbol": row.symbol, "method": method}
+        | {
             "command": framework.optimize_command(_arguments(row, method), COMPARISON_SEEDS),
             "seeds": run_optimize(row, method, COMPARISON_SEEDS),
         }

@@ -74,10 +74,8 @@ def score_run(algo: str, steps: int, seed: int, variant: str, folder: Path) -> d
     conditions = map(str, held_out_conditions(ENV_ID))
     framework.run_command([*envelope, "--conditions", *conditions], _ONE_CORE)
     rows = framework.read_rows(out / "envelope.csv")
-    return {
-        "algo": algo,
-        **({"hyperparams": variant} if variant else {}),
-        "seed": seed,
+    trained = {"algo": algo, **({"hyperparams": variant} if variant else {}), "seed": seed}
+    return trained | {
         "steps": steps,
         "train_s": round(seconds, 1),
         "conditions": [float(r["condition_value"]) for r in rows],
