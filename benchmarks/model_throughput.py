@@ -61,14 +61,9 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
         f"default resolution: n_time = {PAPER.n_time} samples per cycle, "
         f"n_blade = {PAPER.n_blade} blade elements per wing, inflow tolerance {PAPER.tolerance:g}\n"
     )
-    numbers: dict[str, Any] = {
-        "numba": numba.__version__,
-        "numba_threads": numba.get_num_threads(),
-        **{key: getattr(PAPER, key) for key in ("n_time", "n_blade", "tolerance")},
-        "repeats": args.repeats,
-        "rates": [],
-        "breakdown": [],
-    }
+    numbers: dict[str, Any] = {"numba": numba.__version__, "numba_threads": numba.get_num_threads()}
+    numbers |= {key: getattr(PAPER, key) for key in ("n_time", "n_blade", "tolerance")}
+    numbers |= {"repeats": args.repeats, "rates": [], "breakdown": []}
     print(f"{'batch':>6} {'induction':>10} {'evals/s':>10} {'ms/call':>9} {'inflow sweeps*':>15}")
     for induction, batch in product(args.induction, args.batches or (1, 64, 1024)):
         opts = replace(PAPER, induction=induction)
