@@ -30,15 +30,14 @@ from tandem_env.physics import blade, cycle, induction, model
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
 INDUCTION = ("coupled", "isolated", "none")
+#: The phase-resolved readings, each timed against the mean one.
+READINGS = ("convected", "vortex")
 #: The cases timed: each inflow model, and the coupled inflow with each slipstream reading
 #: (``ModelOptions.slipstream``, docs/model.md §5.7), against the coupled one (the mean reading).
 CASES = {
     **{induction: replace(PAPER, induction=induction) for induction in INDUCTION},
-    "convected": te.ModelOptions(slipstream="convected"),
-    "vortex": te.ModelOptions(slipstream="vortex"),
+    **{reading: te.ModelOptions(slipstream=reading) for reading in READINGS},
 }
-#: The phase-resolved readings, each timed against the mean one.
-READINGS = ("convected", "vortex")
 BATCHES = (1, 64, 1024)
 SWEEP_STROKES = 200
 """Random strokes whose fore-wing annuli are solved one by one to count the sweeps."""
