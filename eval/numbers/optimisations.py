@@ -40,9 +40,7 @@ COMPARISON_METHODS: tuple[str, ...] = ("cmaes", "pso")
 COMPARISON_SEEDS: tuple[int, ...] = (0, 1, 2, 3)
 
 SPECIES_FILE = "examples/orthetrum_cancellatum.yaml"
-SPECIES_ARGUMENTS: tuple[str, ...] = tuple(
-    "--task level --speed 1.5 --method cmaes --budget 16000".split()
-)
+SPECIES_ARGUMENTS = tuple("--task level --speed 1.5 --method cmaes --budget 16000".split())
 """The condition and search, the README's level-flight comparison row (cmaes)."""
 SPECIES_SEEDS: tuple[int, ...] = (0, 1, 2)
 SPECIES_INSECTS: tuple[tuple[str, tuple[str, ...]], ...] = (
