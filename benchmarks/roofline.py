@@ -222,13 +222,9 @@ def main() -> None:
     inputs = model.parametric_kernel_inputs(strokes, options.n_time)
     out = model.run_kernel(*inputs[:5], np.ones(1024), np.zeros(1024), te.DRAGONFLY, options).means
     annuli = 2 * options.n_blade
-    per_stroke = {
-        "element_samples": annuli * options.n_time,
-        "sweeps": float(out[:, :, cycle.W_SWEEPS].sum(1).mean()),
-        "slopes": float(out[:, :, cycle.W_SLOPES].sum(1).mean()),
-    }
+    sweeps, slopes = (float(out[:, :, k].sum(1).mean()) for k in (cycle.W_SWEEPS, cycle.W_SLOPES))
+    per_stroke = {"element_samples": annuli * options.n_time, "sweeps": sweeps, "slopes": slopes}
     ops = operation_counts()
-    sweeps, slopes = per_stroke["sweeps"], per_stroke["slopes"]
     per_sample = {
         key: (sweeps * ops["sweep"].get(key, 0) + slopes * ops["slope"].get(key, 0)) / annuli
         + ops["span"].get(key, 0)
