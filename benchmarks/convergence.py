@@ -12,11 +12,11 @@ docs/model.md §11.4 from it).
 from __future__ import annotations
 
 import argparse
-import time
+from functools import partial
 from typing import Any
 
 import numpy as np
-from shared import parser_with_json, write_numbers
+from shared import parser_with_json, seconds_per_call, write_numbers
 
 import tandem_env as te
 
@@ -72,9 +72,7 @@ def main() -> None:
         options = te.ModelOptions(n_time=n_time, n_blade=n_blade)
         refined = te.ModelOptions(n_time=4 * n_time, n_blade=4 * n_blade)
         te.evaluate(batch[:4], 1.0, options=options)
-        start = time.perf_counter()
-        te.evaluate(batch, 1.0, options=options)
-        rate = 1024 / (time.perf_counter() - start)
+        rate = 1024 / seconds_per_call(partial(te.evaluate, batch, 1.0, options=options))[0]
         for speed in (0.0, 1.0, 2.0):
             cells, percent = [], {}
             for name, e in errors(strokes, speed, options, refined).items():

@@ -54,6 +54,8 @@ POWER = {
 LINEAR_INERTIA = Search(
     "pso", swarm_size=40, iterations=50, settings={"polish": "none", "inertia": "linear-decreasing"}
 )
+#: The reading under which the paper's F̄_v matches converged optima (docs/reproduction.md).
+HOVER_NONE = next(r for r in SINGLES if r.name == "hover-none")
 
 
 @dataclass(frozen=True)
@@ -64,30 +66,23 @@ class Case:
     power: str
     search: Search
 
-    def env_kwargs(self) -> dict[str, Any]:
-        """Only what differs from the defaults (the reading's env keywords), so the records are
-        plain runs' records."""
-        options = {"thrust_split": self.thrust, "power": self.power}
-        return Reading(f"{self.thrust}-{self.power}", "T and P", options=options).env_kwargs()
-
     def prepare(self, seeds: list[int]) -> list[PreparedJob]:
+        """Its jobs over ``seeds``, with only what differs from the defaults in their env
+        keywords (the reading's), so the records are plain runs' records."""
+        options = {"thrust_split": self.thrust, "power": self.power}
+        reading = Reading(f"{self.thrust}-{self.power}", "T and P", options=options)
         budget = self.search.budget("level")
         assert budget is not None
-        settings = {
-            "env_kwargs": self.env_kwargs(),
-            "method_config": dict(self.search.method_config(40)),
-        }
-        return prepare(self.search.method, "level", SPEED, budget, seeds, **settings)
+        config = dict(self.search.method_config(40))
+        kwargs = {"env_kwargs": reading.env_kwargs(), "method_config": config}
+        return prepare(self.search.method, "level", SPEED, budget, seeds, **kwargs)
 
 
 def cases() -> list[Case]:
     """Part 1 (certified) for every reading, then part 2 (the paper-era searches)."""
-    readings = [(t, p) for t in THRUST for p in POWER]
-    searches = [reading.search for reading in PAPER_SEARCHES if reading.search is not None]
-    out = [Case(t, p, CERTIFIED) for t, p in readings]
-    out += [Case(t, p, s) for s in searches for t, p in readings]
-    out.append(Case("sign", "absolute", LINEAR_INERTIA))
-    return out
+    searches = [CERTIFIED, *(r.search for r in PAPER_SEARCHES if r.search is not None)]
+    out = [Case(t, p, s) for s in searches for t in THRUST for p in POWER]
+    return [*out, Case("sign", "absolute", LINEAR_INERTIA)]
 
 
 def _label(search: Search) -> str:
@@ -113,10 +108,6 @@ def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
     }
     if not eta:
         return row | {"median_eta": None}
-    best = max(feasible, key=lambda r: r.objective)
-    # a polish that converged ends at a constrained local optimum (KKT residual in the record)
-    certified = [r for r in feasible if r.certificate.get("converged") is True]
-    low, high = eta[0], eta[-1]
     median = statistics.median(eta)
     thrust = statistics.median(r.metrics["thrust"] for r in feasible) / DRAGONFLY.weight
     power = statistics.median(r.metrics["power_per_mass"] for r in feasible)
@@ -125,12 +116,13 @@ def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
     eta_d = [100 * r.objective * r.metrics["drag"] / r.metrics["thrust"] for r in feasible]
     return row | {
         "median_eta": round(median, 2),
-        "min_eta": round(low, 2),
-        "max_eta": round(high, 2),
-        "best_seed": best.seed,
+        "min_eta": round(eta[0], 2),
+        "max_eta": round(eta[-1], 2),
+        "best_seed": max(feasible, key=lambda r: r.objective).seed,
         "median_over_paper": round(median / PAPER_ETA, 2),
-        "paper_in_range": low <= PAPER_ETA <= high,
-        "polish_converged": len(certified),
+        "paper_in_range": eta[0] <= PAPER_ETA <= eta[-1],
+        # a polish that converged ends at a constrained local optimum (KKT residual in the record)
+        "polish_converged": sum(r.certificate.get("converged") is True for r in feasible),
         "median_T_over_W": round(thrust, 3),
         "median_P_per_mass": round(power, 1),
         "median_eta_T_is_D": round(statistics.median(eta_d), 2),
@@ -139,28 +131,29 @@ def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
 
 def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table of docs/efficiency.md."""
+    row = (
+        "| {T} | {P} | {search} | {median_eta:.1f} | {min_eta:.1f} - {max_eta:.1f} | {best_seed} "
+        "| {median_over_paper:.2f} | {in_range} | {polish_converged}/{seeds} "
+        "| {median_T_over_W:.3f} | {median_P_per_mass:.1f} | {median_eta_T_is_D:.2f} |"
+    )
     lines = [
         "| T | P | search | median η [%] | range [%] | best seed | median / 12.7 % "
         "| 12.7 % in range | polish converged | T/W | P/m [W/kg] | D·V/P [%] |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        *(
+            f"| {r['T']} | {r['P']} | {r['search']} | no feasible seed |" + " |" * 8
+            if r["median_eta"] is None
+            else row.format(**r, in_range="yes" if r["paper_in_range"] else "no")
+            for r in rows
+        ),
     ]
-    for r in rows:
-        if r["median_eta"] is None:
-            lines.append(f"| {r['T']} | {r['P']} | {r['search']} | no feasible seed |" + " |" * 8)
-            continue
-        lines.append(
-            f"| {r['T']} | {r['P']} | {r['search']} | {r['median_eta']:.1f} "
-            f"| {r['min_eta']:.1f} - {r['max_eta']:.1f} | {r['best_seed']} "
-            f"| {r['median_over_paper']:.2f} | {'yes' if r['paper_in_range'] else 'no'} "
-            f"| {r['polish_converged']}/{r['seeds']} "
-            f"| {r['median_T_over_W']:.3f} | {r['median_P_per_mass']:.1f} "
-            f"| {r['median_eta_T_is_D']:.2f} |"
-        )
     return "\n".join(lines)
 
 
-def _meta(load_before: tuple[float, ...], wall: float, scheduler: str | None) -> dict[str, Any]:
-    """Date, machine, load and command of a run (the docs quote them beside its numbers)."""
+def _meta(started: tuple[Any, float], scheduler: str | None) -> dict[str, Any]:
+    """Date, machine, load and command of a run just finished (``started``: the load average and
+    ``time.perf_counter()`` at its start); the docs quote them beside its numbers."""
+    load_before, start = started
     return {
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "machine": f"{os.cpu_count()} CPU cores ({platform.machine()}), "
@@ -169,12 +162,8 @@ def _meta(load_before: tuple[float, ...], wall: float, scheduler: str | None) ->
         "load_average_after": [round(x, 2) for x in os.getloadavg()],
         "command": " ".join(["python", *sys.argv]),
         "scheduler": scheduler or "serial",
-        "wall_time_s": round(wall, 1),
+        "wall_time_s": round(time.perf_counter() - start, 1),
     }
-
-
-#: The reading under which the paper's F̄_v matches converged optima (docs/reproduction.md).
-HOVER_NONE = next(r for r in SINGLES if r.name == "hover-none")
 
 
 def claim_readings() -> tuple[Reading, ...]:
@@ -193,14 +182,12 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
     is "moved" where its verdict differs from that of the same model searched as the preset
     searches."""
     where = out / f"claims-{preset}"
-    load_before = os.getloadavg()
-    start = time.perf_counter()
+    started = os.getloadavg(), time.perf_counter()
     # continuation None: every reading searched from scratch (the search is what is read)
     options = {"derive": False, "scheduler": scheduler, "progress": False, "continuation": None}
-    result = run_readings(
-        StudyPlan(get_preset(preset)), where, readings=claim_readings(), **options
-    )
-    wall = time.perf_counter() - start
+    plan = StudyPlan(get_preset(preset))
+    result = run_readings(plan, where, readings=claim_readings(), **options)
+    meta = _meta(started, scheduler) | {"preset": preset}
     by_model = {json.dumps(r.reading.env_kwargs(), sort_keys=True): r for r in result.results}
     names = [r.reading.name for r in result.results]
     print(*table_head(["claim", "paper", *names]), sep="\n")
@@ -219,12 +206,10 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
     counts = {r.reading.name: {"agree": r.agree, "differ": r.differ} for r in result.results}
     print("agree: " + ", ".join(f"{n} {c['agree']}" for n, c in counts.items()))
     print("differ: " + ", ".join(f"{n} {c['differ']}" for n, c in counts.items()))
-    meta = _meta(load_before, wall, scheduler) | {"preset": preset}
     meta["runs"] = [s.to_dict() for s in result.runs]
-    write_json_atomic(
-        where / "efficiency_claims.json", {"meta": meta, "counts": counts, "claims": rows}
-    )
-    print(f"{wall:.0f} s; wrote {where / 'efficiency_claims.json'}", file=sys.stderr)
+    path = where / "efficiency_claims.json"
+    write_json_atomic(path, {"meta": meta, "counts": counts, "claims": rows})
+    print(f"{meta['wall_time_s']:.0f} s; wrote {path}", file=sys.stderr)
     return 0
 
 
@@ -247,28 +232,22 @@ def main() -> int:
         return claims(args.claims, Path(args.out), args.scheduler)
     wanted = {"all": (True, False), "certified": (True,), "search": (False,)}[args.part]
     prepared = {c: c.prepare(args.seeds) for c in cases() if (c.search == CERTIFIED) in wanted}
-    load_before = os.getloadavg()
-    start = time.perf_counter()
+    started = os.getloadavg(), time.perf_counter()
     jobs = [p for group in prepared.values() for p in group]
     summary = run_jobs(jobs, args.out, scheduler=args.scheduler, progress=False)
-    wall = time.perf_counter() - start
+    runs = {"runs": summary.total, "ran": summary.ran, "reused": summary.reused}
+    meta = _meta(started, args.scheduler) | runs | {"speed": SPEED, "paper_eta": PAPER_ETA}
     rows = [summarise(c, [summary.records[p.job.key] for p in g]) for c, g in prepared.items()]
     print(table(rows))
-    meta = _meta(load_before, wall, args.scheduler) | {
-        "runs": summary.total,
-        "ran": summary.ran,
-        "reused": summary.reused,
-        "speed": SPEED,
-        "paper_eta": PAPER_ETA,
-    }
     path = Path(args.out) / "efficiency_readings.json"
     if summary.ran == 0 and path.exists():  # nothing ran: keep the timing of the run that did
         before = read_json(path).get("meta", {})
         meta["measured_by"] = before.get("measured_by", before)
     write_json_atomic(path, {"meta": meta, "rows": rows})
     print(
-        f"{summary.total} runs ({summary.ran} run, {summary.reused} reused) in {wall:.0f} s; "
-        f"load {meta['load_average_before']} -> {meta['load_average_after']}; wrote {path}",
+        f"{summary.total} runs ({summary.ran} run, {summary.reused} reused) in "
+        f"{meta['wall_time_s']:.0f} s; load {meta['load_average_before']} -> "
+        f"{meta['load_average_after']}; wrote {path}",
         file=sys.stderr,
     )
     return 0

@@ -48,16 +48,11 @@ def main() -> None:
     ]
     env = gym.make(ENV_ID)
     env.reset(seed=0)
-
-    def single() -> None:
-        env.reset()
-        env.step(actions[0])
-
-    rows.append(("single env (gym.make), reset + step", rate(single, seconds, 1)))
+    single = rate(lambda: (env.reset(), env.step(actions[0])), seconds, 1)
+    rows.append(("single env (gym.make), reset + step", single))
+    vectorised = {"num_envs": n, "vectorization_mode": "vector_entry_point"}
     for mode, label in (("NextStep", "next-step autoreset"), ("SameStep", "same-step autoreset")):
-        envs = gym.make_vec(
-            ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", autoreset_mode=mode
-        )
+        envs = gym.make_vec(ENV_ID, **vectorised, autoreset_mode=mode)
         envs.reset(seed=0)
         # Count the strokes actually evaluated (terminated envs), not the reset steps.
         vector = rate(lambda: int(envs.step(actions)[2].sum()), seconds)  # noqa: B023
@@ -68,9 +63,8 @@ def main() -> None:
 
     venv = make_sb3_vec_env(ENV_ID, n_envs=n, seed=0)
     venv.reset()
-    rows.append(
-        (f"SB3 adapter (TandemVecEnv), n = {n}", rate(partial(venv.step, actions), seconds, n))
-    )
+    sb3 = rate(partial(venv.step, actions), seconds, n)
+    rows.append((f"SB3 adapter (TandemVecEnv), n = {n}", sb3))
     venv.close()
 
     reference = rows[1][1]
@@ -78,13 +72,9 @@ def main() -> None:
     print(f"{'':{width}}  strokes/s   vs evaluate(B={n})")
     for name, value in rows:
         print(f"{name:{width}}  {value:9.0f}   {value / reference:6.1%}")
-    table = [
-        {"case": name, "strokes_per_s": value, "of_reference": value / reference}
-        for name, value in rows
-    ]
-    write_numbers(
-        args.json, {"num_envs": n, "seconds": seconds, "reference": rows[1][0], "rows": table}
-    )
+    table = [{"case": c, "strokes_per_s": v, "of_reference": v / reference} for c, v in rows]
+    numbers = {"num_envs": n, "seconds": seconds, "reference": rows[1][0], "rows": table}
+    write_numbers(args.json, numbers)
 
 
 if __name__ == "__main__":

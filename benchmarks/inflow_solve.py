@@ -30,15 +30,14 @@ from tandem_env.physics import blade, cycle, induction, model
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
 INDUCTION = ("coupled", "isolated", "none")
+#: The phase-resolved readings, each timed against the mean one.
+READINGS = ("convected", "vortex")
 #: The cases timed: each inflow model, and the coupled inflow with each slipstream reading
 #: (``ModelOptions.slipstream``, docs/model.md §5.7), against the coupled one (the mean reading).
 CASES = {
     **{induction: replace(PAPER, induction=induction) for induction in INDUCTION},
-    "convected": te.ModelOptions(slipstream="convected"),
-    "vortex": te.ModelOptions(slipstream="vortex"),
+    **{reading: te.ModelOptions(slipstream=reading) for reading in READINGS},
 }
-#: The phase-resolved readings, each timed against the mean one.
-READINGS = ("convected", "vortex")
 BATCHES = (1, 64, 1024)
 SWEEP_STROKES = 200
 """Random strokes whose fore-wing annuli are solved one by one to count the sweeps."""
@@ -65,21 +64,17 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
     )
     numbers: dict[str, Any] = {"rounds": rounds, "rates": [], "ratios": [], "slipstream_ratios": []}
     for (name, batch), t in wall.items():
-        best = batch / min(t)
-        median = batch / np.median(t)
-        best_cpu = min(cpu[name, batch])
+        best, median, best_cpu = batch / min(t), batch / np.median(t), min(cpu[name, batch])
         print(f"{batch:>6} {name:>10} {best:>13.0f} {median:>15.0f} {1e3 * best_cpu:>17.2f}")
         row = {"batch": batch, "induction": name, "best_per_s": best, "median_per_s": median}
         numbers["rates"].append(row | {"best_cpu_per_s": batch / best_cpu})
-    print()
-    print("coupled / none (time per call; per-round ratios: median and range):")
+    print("\ncoupled / none (time per call; per-round ratios: median and range):")
     for batch in BATCHES:
         row = ratios(wall, cpu, ("coupled", batch), ("none", batch))
         best = min(wall["coupled", batch]) / min(wall["none", batch])
         print(f"  batch {batch:>4}: {row.pop('line')} (best/best {best:.3f})")
         numbers["ratios"].append({"batch": batch, **row})
-    print()
-    print("reading / mean slipstream, all coupled (per-round ratios: median and range):")
+    print("\nreading / mean slipstream, all coupled (per-round ratios: median and range):")
     for reading, batch in ((r, b) for r in READINGS for b in BATCHES):
         row = ratios(wall, cpu, (reading, batch), ("coupled", batch))
         print(f"  {reading:>9} batch {batch:>4}: {row.pop('line')}")
@@ -91,15 +86,13 @@ def ratios(wall: dict, cpu: dict, case: tuple, base: tuple) -> dict[str, Any]:
     """The per-round ratios case / base of wall and CPU time: median and range of each, and
     their printed ``line``."""
     row: dict[str, Any] = {}
-    for kind, times in (("wall", wall), ("cpu", cpu)):
+    parts = []
+    for kind, times, label in (("wall", wall, "wall"), ("cpu", cpu, "CPU")):
         ratio = np.array(times[case]) / np.array(times[base])
         row[f"{kind}_median"] = float(np.median(ratio))
         row[f"{kind}_range"] = [float(ratio.min()), float(ratio.max())]
-    row["line"] = (
-        f"wall {row['wall_median']:.3f} ({row['wall_range'][0]:.3f}-{row['wall_range'][1]:.3f}); "
-        f"CPU {row['cpu_median']:.3f} ({row['cpu_range'][0]:.3f}-{row['cpu_range'][1]:.3f})"
-    )
-    return row
+        parts.append(f"{label} {np.median(ratio):.3f} ({ratio.min():.3f}-{ratio.max():.3f})")
+    return row | {"line": "; ".join(parts)}
 
 
 def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -137,15 +130,12 @@ def main() -> None:
         f"{machine()}; n_time = {PAPER.n_time}, n_blade = {PAPER.n_blade}, "
         f"tolerance {PAPER.tolerance:g}"
     )
-    print()
-    print(f"force sweeps per fore-wing annulus (own inflow, {SWEEP_STROKES} random strokes):")
+    print(f"\nforce sweeps per fore-wing annulus (own inflow, {SWEEP_STROKES} random strokes):")
     sweeps = []
     for speed in SWEEP_SPEEDS:
         counts, solved = sweeps_per_annulus(strokes[:SWEEP_STROKES], speed)
         hist = {int(k): int(n) for k, n in enumerate(np.bincount(counts[solved])) if n}
-        share = float(solved.mean())
-        mean = float(counts[solved].mean())
-        most = int(counts.max())
+        share, mean, most = float(solved.mean()), float(counts[solved].mean()), int(counts.max())
         print(
             f"  V = {speed:.0f} m/s: {share:.0%} of annuli solved, mean {mean:.2f} sweeps (max "
             f"{most}), histogram {hist}"

@@ -24,7 +24,7 @@ from typing import Any
 
 import numba
 import numpy as np
-from shared import PAPER, best_time, call_times, machine, parser_with_json, write_numbers
+from shared import PAPER, call_times, machine, parser_with_json, write_numbers
 
 import tandem_env as te
 from tandem_env.physics import model
@@ -53,48 +53,38 @@ def main() -> None:
 def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     """Evaluations per second of the numba kernel per inflow model and batch, and where the
     time of one coupled batch of 1024 goes."""
-    options = PAPER
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
     speeds = rng.uniform(0.25, 2.0, 1024)
     print(machine())
     print(
-        f"default resolution: n_time = {options.n_time} samples per cycle, "
-        f"n_blade = {options.n_blade} blade elements per wing, inflow tolerance {options.tolerance:g}"
+        f"default resolution: n_time = {PAPER.n_time} samples per cycle, "
+        f"n_blade = {PAPER.n_blade} blade elements per wing, inflow tolerance {PAPER.tolerance:g}\n"
     )
-    print()
-    numbers: dict[str, Any] = {
-        "numba": numba.__version__,
-        "numba_threads": numba.get_num_threads(),
-        "n_time": options.n_time,
-        "n_blade": options.n_blade,
-        "tolerance": options.tolerance,
-        "repeats": args.repeats,
-        "rates": [],
-        "breakdown": [],
-    }
+    numbers: dict[str, Any] = {"numba": numba.__version__, "numba_threads": numba.get_num_threads()}
+    numbers |= {key: getattr(PAPER, key) for key in ("n_time", "n_blade", "tolerance")}
+    numbers |= {"repeats": args.repeats, "rates": [], "breakdown": []}
     print(f"{'batch':>6} {'induction':>10} {'evals/s':>10} {'ms/call':>9} {'inflow sweeps*':>15}")
     for induction, batch in product(args.induction, args.batches or (1, 64, 1024)):
         opts = replace(PAPER, induction=induction)
         call = partial(te.evaluate, strokes[:batch], speeds[:batch], options=opts)
-        seconds = best_time(call, args.repeats)
+        seconds = min(call_times(call, args.repeats)[0])
         sweeps = float(call().induction_evaluations.mean())
         rate, ms = batch / seconds, 1e3 * seconds
         print(f"{batch:>6} {induction:>10} {rate:>10.0f} {ms:>9.2f} {sweeps:>15.1f}")
         row = {"batch": batch, "induction": induction, "evaluations_per_s": rate}
         numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
-    print()
-    print("where the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
-    *kinematic, motion = model.parametric_kernel_inputs(strokes, options.n_time)
+    print("\nwhere the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
+    *kinematic, motion = model.parametric_kernel_inputs(strokes, PAPER.n_time)
     inputs = (*kinematic, speeds, np.zeros_like(speeds), te.DRAGONFLY)
-    kinematics = partial(model.parametric_kernel_inputs, strokes, options.n_time)
+    kinematics = partial(model.parametric_kernel_inputs, strokes, PAPER.n_time)
     no_inflow = partial(model.run_kernel, *inputs, replace(PAPER, induction="none"), motion=motion)
     parts = {
         "validate strokes": lambda: te.validate_physical(strokes),
         "kinematics (angles, analytic rates)": kinematics,
         "cycle without inflow (frames, forces, power, means)": no_inflow,
-        "cycle with coupled inflow": partial(model.run_kernel, *inputs, options, motion=motion),
+        "cycle with coupled inflow": partial(model.run_kernel, *inputs, PAPER, motion=motion),
         "whole evaluate()": lambda: te.evaluate(strokes, speeds, options=PAPER),
     }
     for name, call in parts.items():
@@ -125,8 +115,7 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
         f"{'compiled' if args.compile else 'eager'}, {torch.get_num_threads()} CPU threads; "
         + machine()
     )
-    x_all = torch.tensor(strokes, dtype=dtype, device=device)
-    v_all = torch.tensor(speeds, dtype=dtype, device=device)
+    x_all, v_all = (torch.tensor(a, dtype=dtype, device=device) for a in (strokes, speeds))
     numbers: dict[str, Any] = {
         "torch": torch.__version__,
         "device": str(device),
@@ -151,12 +140,12 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     print(header + (f" {'numba evals/s':>14} {'torch/numba':>12}" if on_cpu else ""))
     for induction, batch in product(args.induction, batches):
         opts = replace(PAPER, induction=induction)
-        seconds = best_time(partial(run_torch, batch, opts), args.repeats)
+        seconds = min(call_times(partial(run_torch, batch, opts), args.repeats)[0])
         line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
         row = {"batch": batch, "induction": induction, "evaluations_per_s": batch / seconds}
         if on_cpu:
             evaluate = partial(te.evaluate, strokes[:batch], speeds[:batch], options=opts)
-            numba_s = best_time(evaluate, args.repeats)
+            numba_s = min(call_times(evaluate, args.repeats)[0])
             line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
             row |= {
                 "numba_evaluations_per_s": batch / numba_s,
@@ -170,9 +159,7 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     return numbers
 
 
-def accuracy(
-    args, torch_model, x_all, v_all, strokes: np.ndarray, speeds: np.ndarray
-) -> dict[str, Any]:
+def accuracy(args, torch_model, x_all, v_all, strokes, speeds) -> dict[str, Any]:
     """The torch results against numba's on up to 256 strokes: the largest relative
     difference of any field and, per headline metric, relative to its largest magnitude."""
     import torch
@@ -185,11 +172,10 @@ def accuracy(
     for name, value in want.as_dict().items():
         a, b = value.astype(float), getattr(got, name).astype(float)
         relative[name] = float(np.max(np.abs(b - a) / np.maximum(np.abs(a), 1e-6)))
-    worst_name = max(relative, key=relative.__getitem__)
-    worst = relative[worst_name]
-    print()
+    worst_name, worst = max(relative.items(), key=lambda item: item[1])
     print(
-        f"against numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"
+        f"\nagainst numba on {n} strokes (coupled): largest relative difference {worst:.2g} "
+        f"({worst_name})"
     )
     scaled = {}
     for name in ("lift_to_weight", "thrust", "drag", "power", "efficiency", "fore_inflow"):
@@ -202,25 +188,23 @@ def accuracy(
     return {"strokes": n, "largest_relative": worst, "field": worst_name, "scaled": scaled}
 
 
-def gradient_cost(
-    args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndarray
-) -> dict[str, Any]:
+def gradient_cost(args, torch_model, x_all, strokes, speeds) -> dict[str, Any]:
     """One autograd gradient against one batched central difference of the numba model."""
     columns = np.flatnonzero(~DISCRETE)
     step = 1e-6 * (UPPER - LOWER)[columns]
     probes = np.repeat(strokes[:1], 1 + 2 * columns.size, axis=0)
     probes[1::2, columns] += np.diag(step)
     probes[2::2, columns] -= np.diag(step)
-    central = best_time(lambda: te.evaluate(probes, speeds[0], options=PAPER), args.repeats)
-    print()
+    central_difference = partial(te.evaluate, probes, speeds[0], options=PAPER)
+    central = min(call_times(central_difference, args.repeats)[0])
     print(
-        f"gradient of power with respect to the 28 parameters, per stroke: central difference "
+        f"\ngradient of power with respect to the 28 parameters, per stroke: central difference "
         f"of numba ({probes.shape[0]} strokes in one call) {1e3 * central:.1f} ms"
     )
     numbers: dict[str, Any] = {"central_difference_ms": 1e3 * central, "probes": probes.shape[0]}
     for batch in (1, 64):
         gradient = partial(torch_model.value_and_grad, x_all[:batch], "power", speeds[0])
-        seconds = best_time(partial(gradient, compiled=args.compile), args.repeats)
+        seconds = min(call_times(partial(gradient, compiled=args.compile), args.repeats)[0])
         print(
             f"  autograd at batch {batch:>3}: {1e3 * seconds / batch:8.1f} ms per stroke "
             f"({central * batch / seconds:.2f}x the central difference's rate)"

@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import astuple, dataclass
+from functools import partial
 from typing import Any
 
 import cmaes
@@ -32,9 +33,7 @@ from tandem_env.io.keyvalue import add_pairs_argument
 
 CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"available_power": 60.0}, 60.0)}
 #: The package's public calls our CMA-ES makes (agents/cmaes_search.py): its whole work.
-PACKAGE_CALLS = {
-    "cmaes": ((cmaes.CMAwM, "ask"), (cmaes.CMAwM, "tell"), (cmaes.CMAwM, "should_stop"))
-}
+PACKAGE_CALLS = {"cmaes": tuple((cmaes.CMAwM, name) for name in ("ask", "tell", "should_stop"))}
 
 
 @dataclass
@@ -47,11 +46,6 @@ class Timing:
     """Time inside the optimiser's package (cmaes only) [s]."""
     evaluations: int = 0
     iterations: int = 0
-
-    @property
-    def overhead(self) -> float:
-        """Share of the run spent outside the vector-env step."""
-        return (self.total - self.env_step) / self.total
 
 
 @contextmanager
@@ -98,16 +92,12 @@ def time_run(
     with (
         timed_calls([(base, "evaluate")], timing, "model"),  # every env's one model call
         timed_calls(PACKAGE_CALLS.get(method, ()), timing, "package"),
+        timed_calls([(optimiser, "ask"), (optimiser, "tell")], timing, "ask_tell"),
         VectorEnvEvaluator(task, task.condition(value), env_kwargs, seed, evaluations) as evaluator,
     ):
         while not optimiser.done:
-            t0 = time.perf_counter()
             X = optimiser.ask()
-            t1 = time.perf_counter()
-            rewards = evaluator(X)
-            t2 = time.perf_counter()
-            optimiser.tell(X, rewards)
-            timing.ask_tell += (t1 - t0) + (time.perf_counter() - t2)
+            optimiser.tell(X, evaluator(X))
         timing.total = time.perf_counter() - start
         timing.env_step = evaluator.step_time
         timing.evaluations = evaluator.evaluations
@@ -124,11 +114,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3, help="runs (seeds 0..repeats-1)")
     args = parser.parse_args(argv)
     settings = args.method_config
-    time_run(args.method, settings, args.task, 200, 0)  # warm-up: numba cache, env construction
-    timings = [
-        time_run(args.method, settings, args.task, args.evaluations, seed)
-        for seed in range(args.repeats)
-    ]
+    run = partial(time_run, args.method, settings, args.task)
+    run(200, 0)  # warm-up: numba cache, env construction
+    timings = [run(args.evaluations, seed) for seed in range(args.repeats)]
     env_kwargs, _ = CONDITIONS[args.task]
     print(
         f"{args.method} {settings or ''} on {args.task} {env_kwargs}: {args.evaluations} "
@@ -141,19 +129,19 @@ def main(argv: list[str] | None = None) -> int:
     for k, t in enumerate(timings):
         print(
             f"{k:>4} {t.iterations:>8} {t.total:>10.3f} {t.model:>10.3f} {t.env_step:>13.3f} "
-            f"{t.ask_tell:>13.4f} {t.evaluations / t.total:>9.0f} {t.overhead:>8.2%}"
+            f"{t.ask_tell:>13.4f} {t.evaluations / t.total:>9.0f} "
+            f"{(t.total - t.env_step) / t.total:>8.2%}"
         )
     total, env_step, model, ask_tell, package, _, iterations = (
         sum(values) for values in zip(*map(astuple, timings), strict=True)
     )
-    overhead = (total - env_step) / total
     print(
         f"all  vector-env step {env_step:.3f} s ({env_step / total:.1%} of the run; of which "
         f"the model call {model:.3f} s, the env's own work {env_step - model:.3f} s)"
     )
     print(
         f"all  optimiser overhead (everything but the env step) {total - env_step:.3f} s = "
-        f"{overhead:.2%} of {total:.3f} s (ask+tell {ask_tell:.3f} s = "
+        f"{(total - env_step) / total:.2%} of {total:.3f} s (ask+tell {ask_tell:.3f} s = "
         f"{ask_tell / total:.2%})"
     )
     if args.method in PACKAGE_CALLS:

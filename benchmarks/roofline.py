@@ -30,6 +30,8 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+COUNTS: dict[str, int] = {}
+"""What :class:`Counted` numbers counted, by kind of operation."""
 
 
 def workload(te, batch: int = 1024):
@@ -58,9 +60,6 @@ class Counted(float):
     """A float that counts the arithmetic done on it (:data:`COUNTS`)."""
 
 
-COUNTS: dict[str, int] = {}
-
-
 def _op(kind: str, fn):
     def apply(*args):
         COUNTS[kind] = COUNTS.get(kind, 0) + 1
@@ -69,10 +68,9 @@ def _op(kind: str, fn):
     return apply
 
 
-for _name in ("add", "radd", "sub", "rsub", "mul", "rmul"):
-    setattr(Counted, f"__{_name}__", _op("flop", getattr(float, f"__{_name}__")))
-Counted.__truediv__ = _op("div", float.__truediv__)
-Counted.__rtruediv__ = _op("div", float.__rtruediv__)
+for _name in ("add", "radd", "sub", "rsub", "mul", "rmul", "truediv", "rtruediv"):
+    _kind = "div" if _name.endswith("div") else "flop"
+    setattr(Counted, f"__{_name}__", _op(_kind, getattr(float, f"__{_name}__")))
 Counted.__neg__ = lambda x: Counted(-float(x))
 Counted.__abs__ = lambda x: Counted(abs(float(x)))
 
@@ -114,8 +112,7 @@ def operation_counts() -> dict[str, dict[str, int]]:
     sweep["flop"] += 4  # (F_c·e_c·z + F_n·e_n·z)·w and its running sum
     slope = Counter(counted(induction.normal_force_rate_at, u, v, *force_args))
     slope["flop"] += 2  # the weight and the running sum
-    span = np.empty((4, 1), dtype=object)
-    span[:] = Counted(0.0)
+    span = np.full((4, 1), Counted(0.0), dtype=object)
     samples = np.array([[Counted(x)] for x in (fc, fn, u, v)], dtype=object)
     integrate = counted(cycle.add_to_span, coef, samples, section, Counted(30.0), span)
     return {"sweep": dict(sweep), "slope": dict(slope), "span": integrate}
@@ -174,9 +171,8 @@ def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
 
     angles, weights, _, beta, _, _ = inputs
     speed, path = np.ones(len(strokes)), np.zeros(len(strokes))
-    history = model.run_kernel(
-        *inputs[:5], speed, path, te.DRAGONFLY, options, keep=model.Kept(history=True)
-    ).history
+    kept = model.Kept(history=True)
+    history = model.run_kernel(*inputs[:5], speed, path, te.DRAGONFLY, options, keep=kept).history
     coef = np.empty((options.n_time, blade.N_COEF))
     out = np.empty(cycle.N_WING_OUT)
     tables = cycle.fourier_tables(options.n_time)
@@ -203,13 +199,6 @@ def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
     }
 
 
-def clock_ghz() -> float:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("cpu MHz"):
-            return float(line.partition(":")[2]) / 1e3
-    return float("nan")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--commit", default="8e3cf19")
@@ -225,37 +214,24 @@ def main() -> None:
     import tandem_env as te
     from tandem_env.physics import cycle, model
 
-    numbers = {
-        "commit": args.commit,
-        "rounds": args.rounds,
-        "calls": args.calls,
-        "batch": 1024,
-        "load_before": os.getloadavg()[0],
-        "ghz": clock_ghz(),
-        **machine_limits(),
-    }
+    numbers = {key: getattr(args, key) for key in ("commit", "rounds", "calls")} | {"batch": 1024}
+    mhz = [x for x in Path("/proc/cpuinfo").read_text().splitlines() if x.startswith("cpu MHz")]
+    ghz = float(mhz[0].partition(":")[2]) / 1e3 if mhz else float("nan")
+    numbers |= {"load_before": os.getloadavg()[0], "ghz": ghz, **machine_limits()}
     call, strokes, options = workload(te)
     inputs = model.parametric_kernel_inputs(strokes, options.n_time)
     out = model.run_kernel(*inputs[:5], np.ones(1024), np.zeros(1024), te.DRAGONFLY, options).means
     annuli = 2 * options.n_blade
-    per_stroke = {
-        "element_samples": annuli * options.n_time,
-        "sweeps": float(out[:, :, cycle.W_SWEEPS].sum(1).mean()),
-        "slopes": float(out[:, :, cycle.W_SLOPES].sum(1).mean()),
-    }
+    sweeps, slopes = (float(out[:, :, k].sum(1).mean()) for k in (cycle.W_SWEEPS, cycle.W_SLOPES))
+    per_stroke = {"element_samples": annuli * options.n_time, "sweeps": sweeps, "slopes": slopes}
     ops = operation_counts()
-    sweeps, slopes = per_stroke["sweeps"], per_stroke["slopes"]
     per_sample = {
         key: (sweeps * ops["sweep"].get(key, 0) + slopes * ops["slope"].get(key, 0)) / annuli
         + ops["span"].get(key, 0)
         for key in ("flop", "div", "sqrt", "libm")
     }
-    numbers |= {
-        "per_stroke": per_stroke,
-        "operations": ops,
-        "per_element_sample": per_sample,
-        "stages_ms": stages(te, options, strokes, inputs),
-    }
+    numbers |= {"per_stroke": per_stroke, "operations": ops, "per_element_sample": per_sample}
+    numbers["stages_ms"] = stages(te, options, strokes, inputs)
     print(
         "where the time goes (CPU ms per call, 1 thread):",
         ", ".join(f"{k} {v:.1f}" for k, v in numbers["stages_ms"].items()),
@@ -273,8 +249,7 @@ def main() -> None:
     times = {t: {"old": [], "new": []} for t in args.threads}  # (wall, CPU) s per call
     for _ in range(args.rounds):
         for threads in args.threads:
-            old.stdin.write(f"{threads} {args.calls}\n")
-            old.stdin.flush()
+            print(threads, args.calls, file=old.stdin, flush=True)
             times[threads]["old"].append([float(x) for x in old.stdout.readline().split()])
             numba.set_num_threads(threads)
             times[threads]["new"].append(seconds_per_call(call, args.calls))
@@ -301,8 +276,7 @@ def main() -> None:
                 f"(rounds {ratios.min():.2f}-{ratios.max():.2f})"
             )
         numbers["speed"].append(row)
-    one = numbers["speed"][0]
-    ns = 1e-3 * one["cpu_new_ms"] * 1e9 / 1024 / per_stroke["element_samples"]
+    ns = 1e-3 * numbers["speed"][0]["cpu_new_ms"] * 1e9 / 1024 / per_stroke["element_samples"]
     numbers |= {"ns_per_element_sample": ns, "load_after": os.getloadavg()[0]}
     print(f"per stroke: {per_stroke}; per element sample: {per_sample}")
     print(

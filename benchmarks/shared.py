@@ -25,9 +25,7 @@ def seconds_per_call(
 ) -> tuple[float, float]:
     """Wall and CPU (all threads of this process) seconds per call, over ``calls`` back-to-back
     calls, more while they last less than ``min_seconds``."""
-    count = 0
-    start = time.perf_counter()
-    start_cpu = time.process_time()
+    count, start, start_cpu = 0, time.perf_counter(), time.process_time()
     while count < calls or time.perf_counter() - start < min_seconds:
         call()
         count += 1
@@ -39,11 +37,6 @@ def call_times(call: Callable[[], Any], repeats: int) -> tuple[list[float], list
     call()
     wall, cpu = zip(*(seconds_per_call(call) for _ in range(repeats)), strict=True)
     return list(wall), list(cpu)
-
-
-def best_time(call: Callable[[], Any], repeats: int) -> float:
-    """The best wall seconds of ``repeats`` calls after a warm-up (:func:`call_times`)."""
-    return min(call_times(call, repeats)[0])
 
 
 def machine() -> str:

@@ -69,26 +69,19 @@ def main() -> None:
     for coarse, fine in COMPARISONS:
         x, y = results[coarse].lift_to_weight, results[fine].lift_to_weight
         effect = y - alone.lift_to_weight
-        counted = (
-            results[coarse].induction_converged
-            & results[fine].induction_converged
-            & (np.abs(effect) > STRONG * np.abs(y))
-        )
+        converged = results[coarse].induction_converged & results[fine].induction_converged
+        counted = converged & (np.abs(effect) > STRONG * np.abs(y))
         for low, high in BANDS:
             chosen = counted & (speeds >= low) & (speeds < high)
+            n = int(chosen.sum())
             of_effect = 100 * np.abs(x - y)[chosen] / np.abs(effect)[chosen]
             of_weight = 100 * np.abs(x - y)[chosen]
             cells = [np.percentile(v, [50, 90, 100]) for v in (of_effect, of_weight)]
             print(
-                f"{coarse:>16} vs {fine:<16} V {low:g}-{high:g} m/s ({chosen.sum():>3} strokes): "
+                f"{coarse:>16} vs {fine:<16} V {low:g}-{high:g} m/s ({n:>3} strokes): "
                 + "   ".join("{:.1f} / {:.1f} / {:.1f}".format(*c) for c in cells)
             )
-            row = {
-                "coarse": coarse,
-                "fine": fine,
-                "band": [low, high],
-                "strokes": int(chosen.sum()),
-            }
+            row = {"coarse": coarse, "fine": fine, "band": [low, high], "strokes": n}
             for key, c in zip(("of_effect", "of_weight"), cells, strict=True):
                 row[key] = {"median": c[0], "p90": c[1], "max": c[2]}
             rows.append(row)

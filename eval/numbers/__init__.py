@@ -18,7 +18,6 @@ import importlib
 import pkgutil
 import re
 import sys
-from types import ModuleType
 
 from eval.numbers import framework
 
@@ -26,16 +25,13 @@ NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
 
 
-#: Every module of this package but the framework: one per measurement (or set of them).
-_MODULES: list[ModuleType] = [
-    importlib.import_module(f"{__name__}.{m.name}")
-    for m in pkgutil.iter_modules(__path__)
-    if m.name != "framework"
-]
-#: Every measurement by name: each module's ``MEASUREMENT`` (or its ``MEASUREMENTS``).
+#: Every measurement by name: each module's ``MEASUREMENT`` (or its ``MEASUREMENTS``), every
+#: module of this package but the framework holding one measurement (or a set of them).
 MEASUREMENTS: dict[str, framework.Measurement] = {
     m.name: m
-    for module in _MODULES
+    for info in pkgutil.iter_modules(__path__)
+    if info.name != "framework"
+    for module in [importlib.import_module(f"{__name__}.{info.name}")]
     for m in getattr(module, "MEASUREMENTS", None) or (module.MEASUREMENT,)
 }
 
@@ -45,12 +41,11 @@ def render_document(text: str, rendered: dict[str, str]) -> str:
     yet: left as it is; a name no measurement has: KeyError)."""
 
     def body(match: re.Match[str]) -> str:
-        name = match["name"]
-        if name not in rendered and name in MEASUREMENTS:
+        if (name := match["name"]) in rendered:
+            return match.group(1) + rendered[name] + match.group(4)
+        if name in MEASUREMENTS:
             return match.group(0)
-        if name not in rendered:
-            raise KeyError(f"unknown numbers region {name!r}; known: {sorted(rendered)}")
-        return match.group(1) + rendered[name] + match.group(4)
+        raise KeyError(f"unknown numbers region {name!r}; known: {sorted(rendered)}")
 
     return framework.REGION.sub(body, text)
 
@@ -86,14 +81,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
             before = framework.machine()
             data = MEASUREMENTS[name].measure()
-            if MEASUREMENTS[name].blas_dependent:  # measured again under the other kernels
-                data |= {
-                    "blas_kernel": framework.blas_kernel(),
-                    "other_kernels": framework.measure_other_kernels(name),
-                }
-            framework.save(
-                name, {**data, "machine_before": before, "machine_after": framework.machine()}
-            )
+            if MEASUREMENTS[name].blas_dependent:
+                data |= framework.measure_other_kernels(name)
+            data |= {"machine_before": before, "machine_after": framework.machine()}
+            framework.save(name, data)
     rendered = rendered_all()
     for path in framework.DOCUMENTS:
         text = path.read_text(encoding="utf-8")

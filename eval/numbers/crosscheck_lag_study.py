@@ -6,6 +6,7 @@ vortex lattice's."""
 
 from __future__ import annotations
 
+import contextlib
 import math
 import re
 import tempfile
@@ -13,16 +14,8 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from eval.crosscheck import report
 from eval.crosscheck.case import Case, Resolution, base_stroke
-from eval.crosscheck.report import (
-    agreement_numbers,
-    case_of,
-    model_cells,
-    ours,
-    stroke_changes,
-    write_figure,
-    write_scatter,
-)
 from eval.numbers import framework
 from eval.studies.report import table_head, table_row
 from tandem_env.io.files import write_csv_atomic
@@ -52,10 +45,8 @@ GENERALISATION_FILES: dict[str, Path] = {
 def typed(text: Any) -> Any:
     """A CSV cell's text as the run's value (``4x8`` and ``free`` stay text)."""
     for kind in (int, float):
-        try:
+        with contextlib.suppress(TypeError, ValueError):
             return kind(text)
-        except (TypeError, ValueError):
-            pass
     return text
 
 
@@ -64,14 +55,13 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     reading's changes) computed afresh by the model as it is (``eval.crosscheck.report.ours``),
     the solver's columns as stored: a new or changed reading without rerunning the solver."""
     out = [dict(row) for row in rows]
-    for key in dict.fromkeys(case_of(r) for r in rows):
-        mine = [r for r in out if case_of(r) == key]
+    for key in dict.fromkeys(report.case_of(r) for r in rows):
+        mine = [r for r in out if report.case_of(r) == key]
         lags = tuple(float(r["lag_deg"]) for r in mine)
-        model = ours(
-            Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags), DRAGONFLY
-        )
+        case = Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags)
+        model = report.ours(case, DRAGONFLY)
         for index, row in enumerate(mine):
-            row.update(model_cells(model, index))
+            row.update(report.model_cells(model, index))
     return out
 
 
@@ -82,20 +72,20 @@ def generalisation_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, 
     from eval.crosscheck.cli import GRIDS
 
     cases = [point.case(DRAGONFLY, {}, None) for point in GRIDS["generalisation"].points]
-    model = {case: ours(case, DRAGONFLY) for case in cases}
+    model = {case: report.ours(case, DRAGONFLY) for case in cases}
     planned = [(case, index) for case in cases for index in range(len(case.lags))]
     out = [dict(row) for row in rows]
     for wake in dict.fromkeys(row["wake"] for row in out):
         mine = [row for row in out if row["wake"] == wake]
         stored = [(r["stroke_changes"], float(r["speed_m_s"]), float(r["lag_deg"])) for r in mine]
-        if stored != [(stroke_changes(c), c.speed, c.lags[i]) for c, i in planned]:
+        if stored != [(report.stroke_changes(c), c.speed, c.lags[i]) for c, i in planned]:
             raise SystemExit(
                 f"{GENERALISATION_FILES['crosscheck.csv']}: the {wake} wake's rows are not the "
                 "generalisation grid's; rerun `python -m eval crosscheck --grid generalisation` "
                 "(docs/crosscheck.md)"
             )
         for row, (case, index) in zip(mine, planned, strict=True):
-            row.update(model_cells(model[case], index))
+            row.update(report.model_cells(model[case], index))
     return out
 
 
@@ -128,10 +118,10 @@ def measure() -> dict[str, Any]:
 
         def lag_figure(folder: Path, rows: list[dict[str, Any]]) -> None:
             # the stored study ran before --wake existed, on the free wake
-            write_figure(folder, [{"wake": "free", **r} for r in rows], base=Resolution())
+            report.write_figure(folder, [{"wake": "free", **r} for r in rows], base=Resolution())
 
         def free_wake(folder: Path, rows: list[dict[str, Any]]) -> None:
-            write_scatter(folder, table=[r for r in rows if r["wake"] == "free"])
+            report.write_scatter(folder, table=[r for r in rows if r["wake"] == "free"])
 
         rows = refresh(LAG_STUDY_FILES, model_columns, lag_figure)
         refresh(GENERALISATION_FILES, generalisation_columns, free_wake)
@@ -141,7 +131,7 @@ def measure() -> dict[str, Any]:
     rows = framework.read_rows(table)
     if not (CONVERGENCE_OUT / "crosscheck.csv").is_file():
         raise SystemExit(f"{CONVERGENCE_OUT} holds no convergence run; run `{CONVERGENCE_COMMAND}`")
-    cases = {case_of(row) for row in rows}
+    cases = {report.case_of(row) for row in rows}
     if len(cases) != 4 or len(rows) != 32:
         raise SystemExit(
             f"{table} has {len(rows)} rows in {len(cases)} cases, not the lag study's 32 in 4; "
@@ -186,19 +176,19 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """Per case and per reading: the sign agreement with the UVLM, the lag of the largest loss
     and its first harmonic's phase, against the UVLM's."""
     out = []
-    for case in dict.fromkeys(case_of(r) for r in rows):
-        mine = sorted((r for r in rows if case_of(r) == case), key=lambda r: float(r["lag_deg"]))
+    for case in dict.fromkeys(report.case_of(r) for r in rows):
+        mine = [r for r in rows if report.case_of(r) == case]
+        mine.sort(key=lambda r: float(r["lag_deg"]))
         lags = [float(r["lag_deg"]) for r in mine]
         uvlm = [float(r["uvlm_hind_change_pct"]) for r in mine]
         uvlm_loss = largest_loss_lag(lags, uvlm)
-        uvlm_phase = first_harmonic_phase(lags, uvlm)
         entry: dict[str, Any] = {
             "case": case,
             "lags": lags,
             "uvlm": uvlm,
             "uvlm_fore": [float(r["uvlm_fore_change_pct"]) for r in mine],
             "uvlm_loss_lag": uvlm_loss,
-            "uvlm_phase": uvlm_phase,
+            "uvlm_phase": first_harmonic_phase(lags, uvlm),
             "readings": {},
         }
         for reading in readings(rows):
@@ -210,7 +200,7 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                 "same_sign": sum((a < 0) == (b < 0) for a, b in zip(ours, uvlm, strict=True)),
                 "loss_lag": loss,
                 "loss_lag_off": None if loss is None else lag_distance(loss, uvlm_loss),
-                "phase_off": None if loss is None else lag_distance(phase, uvlm_phase),
+                "phase_off": None if loss is None else lag_distance(phase, entry["uvlm_phase"]),
             }
         out.append(entry)
     return out
@@ -224,25 +214,17 @@ def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     out = {}
     entries = summary(rows)
     for reading in readings(rows):
-        (hind_rms, hind_sign), (fore_rms, fore_sign) = (
-            agreement_numbers(rows, reading, pair) for pair in ("hind", "fore")
-        )
-        within = [e["readings"][reading]["loss_lag_off"] for e in entries]
-        out[reading] = {
-            "points": len(rows),
-            "cases": len(entries),
-            "hind_sign": hind_sign,
-            "fore_sign": fore_sign,
-            "hind_rms": hind_rms,
-            "fore_rms": fore_rms,
-            "within": sum(off is not None and off <= 45.0 for off in within),
-        }
+        offs = [e["readings"][reading]["loss_lag_off"] for e in entries]
+        within = sum(off is not None and off <= 45.0 for off in offs)
+        out[reading] = {"points": len(rows), "cases": len(entries), "within": within}
+        for pair in ("hind", "fore"):
+            rms, sign = report.agreement_numbers(rows, reading, pair)
+            out[reading] |= {f"{pair}_rms": rms, f"{pair}_sign": sign}
     return out
 
 
 def case_label(case: tuple[float, float, float]) -> str:
-    speed, spacing, _ = case
-    return f"V = {speed:g} m/s, d = {spacing:g} mm"
+    return f"V = {case[0]:g} m/s, d = {case[1]:g} mm"
 
 
 def render(data: dict[str, Any]) -> str:
@@ -250,16 +232,15 @@ def render(data: dict[str, Any]) -> str:
     entries = summary(rows)
     names = readings(rows)
     lags = entries[0]["lags"]
+    heads = [x for e in entries for x in (f"{case_label(e['case'])}: UVLM", *names)]
     lines = [
         f"Written by `{data['command']}` (its `crosscheck.csv`, copied to "
         "[`docs/crosscheck/lag_study.csv`](crosscheck/lag_study.csv)). The hind-wing's change "
         "of vertical force due to the fore-wing [%], at each lag ΔΦ (+: the hind-wing leads); "
         "the mean reading gives one value at every lag:",
         "",
+        *table_head(["lag ΔΦ", *heads]),
     ]
-    lines += table_head(
-        ["lag ΔΦ", *(x for e in entries for x in (f"{case_label(e['case'])}: UVLM", *names))]
-    )
     for i, lag in enumerate(lags):
         columns = [[e["uvlm"], *(e["readings"][n]["changes"] for n in names)] for e in entries]
         lines.append(table_row([f"{lag:g}°", *(f"{c[i]:+.1f}" for cs in columns for c in cs)]))

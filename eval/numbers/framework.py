@@ -61,8 +61,7 @@ def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
     """Run the documented ``eval optimize`` command into a fresh folder with the record cache
     off (measured now, wall times too); its records, by seed."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        command = optimize_command(arguments, seeds).split()
-        run_command([*command, "--out", out, "--no-cache"])
+        run_command([*optimize_command(arguments, seeds).split(), "--out", out, "--no-cache"])
         records = sorted(read_record_files([out]), key=lambda r: r.seed)
     if [r.seed for r in records] != list(seeds):
         raise RuntimeError(f"expected records of seeds {list(seeds)}, found {records!r}")
@@ -106,20 +105,21 @@ def blas_kernel() -> str:
 def other_kernels() -> list[str]:
     """The kernels of :data:`OTHER_BLAS_KERNELS` but the machine's own (none where numpy's BLAS
     is not OpenBLAS: its kernel cannot be chosen)."""
-    own = blas_kernel()
     if not any(lib["internal_api"] == "openblas" for lib in threadpool_info()):
         return []
-    return [kernel for kernel in OTHER_BLAS_KERNELS if kernel.lower() != own.lower()]
+    return [kernel for kernel in OTHER_BLAS_KERNELS if kernel.lower() != blas_kernel().lower()]
 
 
-def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`."""
+def measure_other_kernels(name: str) -> dict[str, Any]:
+    """The machine's own kernel (``blas_kernel``) and measurement ``name`` again in a fresh
+    process under each of :func:`other_kernels` (``other_kernels``, by kernel)."""
     script = (
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
     )
     command = [sys.executable, "-c", script, name]
-    return {k: json.loads(_run(command, {"OPENBLAS_CORETYPE": k})) for k in other_kernels()}
+    others = {k: json.loads(_run(command, {"OPENBLAS_CORETYPE": k})) for k in other_kernels()}
+    return {"blas_kernel": blas_kernel(), "other_kernels": others}
 
 
 def kernel_views(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
@@ -146,10 +146,9 @@ def kernels_line(data: dict[str, Any]) -> str:
 def agreed(values: Sequence[float], form: str) -> str:
     """One number measured under several kernels as shown: ``form`` of it where every kernel
     gives the same text, else their range, ``min–max``."""
-    texts = {form.format(v) for v in values}
-    return (
-        texts.pop() if len(texts) == 1 else f"{form.format(min(values))}–{form.format(max(values))}"
-    )
+    if len(texts := {form.format(v) for v in values}) == 1:
+        return texts.pop()
+    return f"{form.format(min(values))}–{form.format(max(values))}"
 
 
 def within_shown(value: float, values: Sequence[float], form: str) -> bool:
@@ -169,16 +168,13 @@ class Benchmark:
     environment: tuple[tuple[str, str], ...] = ()
     """Environment variables the documented command sets, as (name, value)."""
 
-    @property
-    def command(self) -> str:
-        """The command as the documents show it."""
-        return " ".join([*(f"{k}={v}" for k, v in self.environment), "python", *self.arguments])
-
     def run(self) -> dict[str, Any]:
+        """Its numbers, with the command as the documents show it."""
+        command = " ".join([*(f"{k}={v}" for k, v in self.environment), "python", *self.arguments])
         with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
             path = Path(out) / "numbers.json"
             run_command(["python", *self.arguments, "--json", str(path)], dict(self.environment))
-            return {**read_json(path), "command": self.command}
+            return {**read_json(path), "command": command}
 
 
 def table(titles: Sequence[str], rows: Iterable[Iterable[object]]) -> list[str]:
@@ -221,23 +217,19 @@ class Measurement:
     measured under :data:`OTHER_BLAS_KERNELS`, rendered at the digits all give."""
 
 
-def cpu_model() -> str:
-    """The CPU's model name where the system tells it (Linux), else the architecture."""
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
-            if line.startswith("model name"):
-                return line.partition(":")[2].strip()
-    return platform.processor() or platform.machine()
-
-
 def machine() -> dict[str, Any]:
-    """Where and when a measurement ran (timings are read against this)."""
+    """Where and when a measurement ran (timings are read against this; the CPU's model name
+    where the system tells it, Linux, else the architecture)."""
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
+    processor = cpu = platform.processor() or platform.machine()
+    with contextlib.suppress(OSError):
+        lines = Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines()
+        cpu = next((x.partition(":")[2].strip() for x in lines if x.startswith("model name")), cpu)
     return {
         "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "cpus": os.cpu_count(),
-        "processor": platform.processor() or platform.machine(),
-        "cpu_model": cpu_model(),
+        "processor": processor,
+        "cpu_model": cpu,
         "python": platform.python_version(),
         "load_average_1min": round(load[0], 2),
     }

@@ -40,9 +40,7 @@ COMPARISON_METHODS: tuple[str, ...] = ("cmaes", "pso")
 COMPARISON_SEEDS: tuple[int, ...] = (0, 1, 2, 3)
 
 SPECIES_FILE = "examples/orthetrum_cancellatum.yaml"
-SPECIES_ARGUMENTS: tuple[str, ...] = tuple(
-    "--task level --speed 1.5 --method cmaes --budget 16000".split()
-)
+SPECIES_ARGUMENTS = tuple("--task level --speed 1.5 --method cmaes --budget 16000".split())
 """The condition and search, the README's level-flight comparison row (cmaes)."""
 SPECIES_SEEDS: tuple[int, ...] = (0, 1, 2)
 SPECIES_INSECTS: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -51,10 +49,7 @@ SPECIES_INSECTS: tuple[tuple[str, tuple[str, ...]], ...] = (
 )
 """(label, the options that choose the insect) of each row."""
 #: The best seed's metrics (heading, format) the table shows, then its stroke parameters.
-SPECIES_METRICS: tuple[tuple[str, str, str], ...] = (
-    ("lift_to_weight", "L/W", "{:.3f}"),
-    ("power_per_mass", "P/m [W/kg]", "{:.1f}"),
-)
+SPECIES_METRICS = (("lift_to_weight", "L/W", "{:.3f}"), ("power_per_mass", "P/m [W/kg]", "{:.1f}"))
 SPECIES_PARAMETERS: tuple[str, ...] = tuple(
     "frequency sweep_amplitude elevation_amplitude pitch_amplitude stroke_plane_angle".split()
 )
@@ -68,13 +63,8 @@ def _arguments(row: ComparisonRow, method: str) -> tuple[str, ...]:
 def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one ``{seed, objective, ...}`` per seed."""
     return [
-        {
-            "seed": r.seed,
-            "objective": r.objective,
-            "feasible": bool(r.feasible),
-            "evaluations": r.evaluations,
-            "wall_time_s": r.wall_time,
-        }
+        {"seed": r.seed, "objective": r.objective, "feasible": bool(r.feasible)}
+        | {"evaluations": r.evaluations, "wall_time_s": r.wall_time}
         for r in framework.run_seeds(_arguments(row, method), seeds)
     ]
 
@@ -105,18 +95,14 @@ def _table(
     ]
     lines += [x for text in (note, framework.kernels_line(data)) if text for x in ("", text)]
     commands = (row["command"] for row in data["rows"])
-    return (
-        "\n".join(lines + framework.footer(data, name, *commands, heading="Each row's command:"))
-        + "\n"
-    )
+    lines += framework.footer(data, name, *commands, heading="Each row's command:")
+    return "\n".join(lines) + "\n"
 
 
 def measure_comparison() -> dict[str, Any]:
     rows = [
-        {
-            "label": row.label,
-            "symbol": row.symbol,
-            "method": method,
+        {"label": row.label, "symbol": row.symbol, "method": method}
+        | {
             "command": framework.optimize_command(_arguments(row, method), COMPARISON_SEEDS),
             "seeds": run_optimize(row, method, COMPARISON_SEEDS),
         }
@@ -179,11 +165,8 @@ def _bounds_text(rows: Sequence[dict[str, Any]]) -> str:
 
 
 def render_species(data: dict[str, Any]) -> str:
-    table = {p.name: p for p in TABLE_4}
-    unit = lambda p: "°" if p.unit == "deg" else p.unit  # noqa: E731
-    parameters = [
-        (n, f"{table[n].symbol} [{unit(table[n])}]", "{:.1f}") for n in SPECIES_PARAMETERS
-    ]
+    shown = {p.name: f"{p.symbol} [{'°' if p.unit == 'deg' else p.unit}]" for p in TABLE_4}
+    parameters = [(n, shown[n], "{:.1f}") for n in SPECIES_PARAMETERS]
     columns = [*SPECIES_METRICS, *parameters]  # (name, heading, format) of each best-seed column
 
     def cells(row: dict, by_kernel: list, seed: tuple[str, ...]) -> str:

@@ -57,11 +57,8 @@ def run_study(kernel: str | None) -> dict[str, Any]:
 def measure() -> dict[str, Any]:
     """:func:`run_study` under the machine's own kernel and under each other OpenBLAS kernel
     (:func:`~eval.numbers.framework.other_kernels`)."""
-    data = {"blas_kernel": framework.blas_kernel(), **run_study(None)}
-    return {
-        **data,
-        "other_kernels": {kernel: run_study(kernel) for kernel in framework.other_kernels()},
-    }
+    own = {"blas_kernel": framework.blas_kernel(), **run_study(None)}
+    return own | {"other_kernels": {k: run_study(k) for k in framework.other_kernels()}}
 
 
 def joined(names: Sequence[str]) -> str:

@@ -57,12 +57,10 @@ def measure() -> dict[str, Any]:
 
 def _invocation_line(invocation: dict[str, Any]) -> str:
     """One invocation of a readings run: when, where, and each phase's work and time."""
-    where = (
-        f", {invocation['cpus']} CPUs, load average (1 min) "
-        + " → ".join(str(x) for x in invocation["load_average_1min"])
-        if "cpus" in invocation
-        else ""
-    )
+    where = ""
+    if "cpus" in invocation:  # an older run's first invocation has none
+        loads = " → ".join(str(x) for x in invocation["load_average_1min"])
+        where = f", {invocation['cpus']} CPUs, load average (1 min) {loads}"
     phases = "; ".join(
         f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} reused) in "
         f"{framework.minutes(p['wall_time_s'], padded=True)}"
@@ -81,21 +79,14 @@ def render(data: dict[str, Any]) -> str:
     reused = [inv for inv in data["invocations"] if inv not in worked]
     best = max(int(r["agree"]) for r in rows)
     heads = [title for title, _ in READINGS_COLUMNS]
+    papers = [" / ".join(paper.get(HEADLINES[c][0], "–") for c in cs) for _, cs in READINGS_COLUMNS]
     lines = [
         *table_head(["reading", "changes from the default", *COUNTS.values(), *heads]),
-        "| paper | "
-        + "| " * (1 + len(COUNTS))
-        + " | ".join(
-            " / ".join(paper.get(HEADLINES[c][0], "–") for c in columns)
-            for _, columns in READINGS_COLUMNS
-        )
-        + " |",
+        "| paper | " + "| " * (1 + len(COUNTS)) + " | ".join(papers) + " |",
     ]
     for r in rows:
         mark = "**" if int(r["agree"]) == best else ""
-        numbers = [
-            " / ".join(f"{float(r[c]):.3g}" for c in columns) for _, columns in READINGS_COLUMNS
-        ]
+        numbers = [" / ".join(f"{float(r[c]):.3g}" for c in cs) for _, cs in READINGS_COLUMNS]
         # an older run has no not_identifiable count
         counts = " | ".join(r.get(k, "–") for k in list(COUNTS)[1:])
         lines.append(

@@ -29,6 +29,7 @@ ENV_ID = "TandemWing/LevelFlight-v0"
 ALGOS: tuple[tuple[str, int], ...] = (("ppo", 300_000), ("sac", 100_000))
 SEEDS: tuple[int, ...] = (0, 1, 2, 3, 4)
 ENVELOPE = "speed_range=(0.25, 2.0)"
+AMORTISED = "amortised"
 FIGURE = Path("docs") / "figures" / "rl_baselines_scores.png"
 # One core per training run, two at a time (torch and numba would each take both otherwise).
 _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
@@ -37,10 +38,7 @@ _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS"
 #: The hyperparameters each algorithm is trained with: the shipped file's (None: the default
 #: ``train/hyperparams/<algo>.yml``, tuned at V = 1.5 m/s) and the envelope's, tuned by
 #: ``python -m train.tune`` (each file says how it was made).
-HYPERPARAMETERS: dict[str, str | None] = {
-    "shipped": None,
-    "tuned": "train/hyperparams/envelope/{algo}.yml",
-}
+HYPERPARAMETERS = {"shipped": None, "tuned": "train/hyperparams/envelope/{algo}.yml"}
 
 #: Every envelope policy the figure and the README headline (``envelope-headline``) show, in
 #: the figure's drawing and legend order: (the measurement that stores its runs, algo, a key of
@@ -52,8 +50,10 @@ POLICIES: tuple[tuple[str, str, str], ...] = (
 
 
 def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str) -> list[str]:
-    """The documented envelope training command of ``algo`` with the ``hyperparams`` of
-    :data:`HYPERPARAMETERS` (``-f`` is added)."""
+    """The documented training command of ``algo``: the envelope's with the ``hyperparams`` of
+    :data:`HYPERPARAMETERS`, or the amortised policy's (``-f`` is added)."""
+    if algo == AMORTISED:
+        return f"python -m train --algo {algo} --env {ENV_ID} --seed {seed} --verbose 0".split()
     conf = HYPERPARAMETERS[hyperparams]
     return [
         *f"python -m train --algo {algo} --env {ENV_ID} --seed {seed} -n {steps}".split(),
@@ -62,24 +62,20 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
     ]
 
 
-def score_run(
-    command: list[str], algo: str, steps: int, seed: int, folder: Path, variant: str = ""
-) -> dict[str, Any]:
-    """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition
-    through ``python -m train.envelope``; ``variant``: the hyperparameters."""
+def score_run(algo: str, steps: int, seed: int, variant: str, folder: Path) -> dict[str, Any]:
+    """Train by :func:`train_command` (``variant``: the hyperparameters) into ``folder``, then
+    score its stroke at each held-out condition through ``python -m train.envelope``."""
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
-    seconds = framework.run_command([*command, "-f", str(logs)], _ONE_CORE)
+    command = [*train_command(algo, steps, seed, variant), "-f", str(logs)]
+    seconds = framework.run_command(command, _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
     envelope = ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out)]
-    framework.run_command(
-        [*envelope, "--conditions", *map(str, held_out_conditions(ENV_ID))], _ONE_CORE
-    )
+    conditions = map(str, held_out_conditions(ENV_ID))
+    framework.run_command([*envelope, "--conditions", *conditions], _ONE_CORE)
     rows = framework.read_rows(out / "envelope.csv")
-    return {
-        "algo": algo,
-        **({"hyperparams": variant} if variant else {}),
-        "seed": seed,
+    trained = {"algo": algo, **({"hyperparams": variant} if variant else {}), "seed": seed}
+    return trained | {
         "steps": steps,
         "train_s": round(seconds, 1),
         "conditions": [float(r["condition_value"]) for r in rows],
@@ -91,20 +87,17 @@ def score_run(
 def measure() -> dict[str, Any]:
     """Train and score every (algo, seed), two runs at a time."""
     tasks = [
-        (train_command(algo, steps, seed, hp), algo, steps, seed, hp)
-        for hp in HYPERPARAMETERS
-        for algo, steps in ALGOS
-        for seed in SEEDS
+        (algo, steps, seed, hp) for hp in HYPERPARAMETERS for algo, steps in ALGOS for seed in SEEDS
     ]
     return {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": score_runs("rl-baselines", tasks)}
 
 
-def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> list[Any]:
-    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time; the
-    figure is redrawn with them as measurement ``name``'s runs."""
+def score_runs(name: str, tasks: list[tuple[str, int, int, str]]) -> list[Any]:
+    """:func:`score_run` of each (algo, steps, seed, variant), two at a time; the figure is
+    redrawn with them as measurement ``name``'s runs."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         with ThreadPoolExecutor(max_workers=2) as pool:
-            runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
+            runs = list(pool.map(lambda t: score_run(*t, Path(tmp)), tasks))
     write_figure(framework.ROOT / FIGURE, {name: runs})
     return runs
 
@@ -114,12 +107,8 @@ def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
     training time [s]."""
     scores = [s for r in runs for s in r["scores"]]
     feasible = [f for r in runs for f in r["feasible"]]
-    return (
-        statistics.median(scores),
-        min(scores),
-        sum(feasible) / len(feasible),
-        statistics.median(r["train_s"] for r in runs),
-    )
+    seconds = statistics.median(r["train_s"] for r in runs)
+    return statistics.median(scores), min(scores), sum(feasible) / len(feasible), seconds
 
 
 def runs_of(runs: list[dict[str, Any]], algo: str, hyperparams: str = "") -> list[dict[str, Any]]:
@@ -167,12 +156,11 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     """Score against speed per policy of :data:`POLICIES`: each seed thin, the median thick (the
     shipped hyperparameters' median only, dashed); ``fresh``: runs just measured, by name."""
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
-    stored = {
+    measured = {
         name: framework.load(name)["runs"]
         for name in dict.fromkeys(name for name, _, _ in POLICIES)
         if framework.json_path(name).is_file()
-    }
-    measured = {**stored, **fresh}
+    } | fresh
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
     for name, algo, hp in POLICIES:
         runs = runs_of(measured.get(name, []), algo, hp)
@@ -199,17 +187,9 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     save(fig, path)  # atomically, its folder made if need be
 
 
-AMORTISED = "amortised"
-
-
-def amortised_command(seed: int | str) -> list[str]:
-    """The documented amortised training command (``-f`` is added)."""
-    return f"python -m train --algo {AMORTISED} --env {ENV_ID} --seed {seed} --verbose 0".split()
-
-
 def measure_amortised() -> dict[str, Any]:
     """Train and score every seed of the amortised policy, two runs at a time."""
-    tasks = [(amortised_command(seed), AMORTISED, 0, seed, "") for seed in SEEDS]
+    tasks = [(AMORTISED, 0, seed, "") for seed in SEEDS]
     return {"env_id": ENV_ID, "runs": score_runs("amortised-scores", tasks)}
 
 
@@ -217,8 +197,9 @@ def render_amortised(data: dict[str, Any]) -> str:
     return (
         score_table("training", [(AMORTISED, "regression + 600 gradient steps", data["runs"])])
         + "\n\nThe same held-out speeds and scoring; "
-        f"`{shlex.join(amortised_command('SEED'))}` with seeds {list(SEEDS)}, then `python -m "
-        f"train.envelope --conditions ...`. {framework.machine_line(data, 'amortised-scores')}\n"
+        f"`{shlex.join(train_command(AMORTISED, 0, 'SEED', ''))}` with seeds {list(SEEDS)}, then "
+        "`python -m train.envelope --conditions ...`. "
+        f"{framework.machine_line(data, 'amortised-scores')}\n"
     )
 
 
@@ -230,10 +211,8 @@ def measure_headline() -> dict[str, Any]:
         runs = runs_of(stored[name]["runs"], algo, hp)
         numbers = dict(zip(("median", "worst", "flies"), summary(runs), strict=False))
         rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), **numbers})
-    return {
-        "policies": rows,
-        "measured": {n: d["machine_before"]["date"] for n, d in stored.items()},
-    }
+    measured = {n: d["machine_before"]["date"] for n, d in stored.items()}
+    return {"policies": rows, "measured": measured}
 
 
 def render_headline(data: dict[str, Any]) -> str:

@@ -14,24 +14,16 @@ from tandem_env.envs.speed_change_config import SpeedChangeConfig
 SPEED_CHANGE_EPISODES = 32
 SPEED_CHANGE_COMMAND = f"python -m eval speed-change --episodes {SPEED_CHANGE_EPISODES}"
 #: The optima's metrics the table shows: info keys of a level-flight step (docs/envs.md).
-OPTIMUM_METRICS: tuple[str, ...] = (
-    "efficiency",
-    "power_per_mass",
-    "lift_to_weight",
-    "thrust",
-    "drag",
-)
+OPTIMUM_METRICS = ("efficiency", "power_per_mass", "lift_to_weight", "thrust", "drag")
 
 
 def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
     """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
     defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed,
     computed now (the record cache off: a cached optimum may come from another BLAS kernel)."""
+    grid = speed_change.STEADY_GRID if speeds is None else speeds
     records = speed_change.optima_records(
-        SpeedChangeConfig.from_kwargs(),
-        speeds=speed_change.STEADY_GRID if speeds is None else speeds,
-        progress=False,
-        record_cache=False,
+        SpeedChangeConfig.from_kwargs(), speeds=grid, progress=False, record_cache=False
     )
     return [
         {
@@ -73,6 +65,7 @@ def render(data: dict[str, Any]) -> str:
     optima = data["optima"]
     first = data["optima"][0]
     random = next(r for r in data["rows"] if r["policy"] == "random")
+    by_kernel = [view["optima"] for view in framework.kernel_views(data).values()]
     lines = [
         speed_change.policy_summary_markdown(data["rows"]).rstrip("\n"),
         "",
@@ -89,9 +82,7 @@ def render(data: dict[str, Any]) -> str:
             f"{framework.agreed([k['lift_to_weight'] for k in o], '{:.3f}')} | "
             f"{framework.agreed([1e3 * (k['thrust'] - k['drag']) for k in o], '{:+.3f}')} | "
             f"{'yes' if all(k['feasible'] for k in o) else 'no'} |"
-            for o in zip(
-                *(view["optima"] for view in framework.kernel_views(data).values()), strict=True
-            )
+            for o in zip(*by_kernel, strict=True)
         ),
         "",
         framework.kernels_line(data),

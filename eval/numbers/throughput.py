@@ -20,6 +20,7 @@ from eval.numbers import framework
 MODEL_THROUGHPUT = framework.Benchmark(("benchmarks/model_throughput.py",))
 INFLOW_SOLVE = framework.Benchmark(("benchmarks/inflow_solve.py",))
 ENV_THROUGHPUT = framework.Benchmark(("benchmarks/env_throughput.py",))
+ROOFLINE = framework.Benchmark(("benchmarks/roofline.py",))
 _TORCH = "benchmarks/model_throughput.py --backend torch --threads 1 --repeats 3".split()
 _ONE_THREAD = (("OMP_NUM_THREADS", "1"),)
 TORCH_EAGER = framework.Benchmark(
@@ -30,6 +31,14 @@ TORCH_COMPILED = framework.Benchmark(
     (*_TORCH, "--compile", "--batches", "64", "1024", "--induction", "coupled"), _ONE_THREAD
 )
 INDUCTIONS: tuple[str, ...] = ("coupled", "isolated", "none")
+QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
+"""The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
+added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
+TRAINING_COMMAND: tuple[str, ...] = tuple(
+    "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
+    "--env-kwargs speed=1.5".split()
+)
+"""The README's command; ``-f`` (an empty log folder) is added."""
 
 
 def by_case(rows: Iterable[dict[str, Any]]) -> dict[tuple[int, str], dict[str, Any]]:
@@ -44,10 +53,9 @@ def render_model_throughput(data: dict[str, Any]) -> str:
     def cell(r: dict[str, Any]) -> str:
         return f"{framework.spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
 
-    lines = framework.table(
-        ["batch", *(f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions)],
-        ([batch, *(cell(rates[batch, i]) for i in inductions)] for batch in batches),
-    )
+    heads = [f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions]
+    rows = ([batch, *(cell(rates[batch, i]) for i in inductions)] for batch in batches)
+    lines = framework.table(["batch", *heads], rows)
     lines += [
         "",
         "Best of "
@@ -71,23 +79,16 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
 
     def cells(batch: int) -> list[Any]:
         per_s = (rates[batch, i] for i in INDUCTIONS)
-        ranges = (framework.median_range(ratios[batch], k) for k in ("wall", "cpu"))
         spaced = framework.spaced
         return [
             batch,
             *(f"{spaced(r['best_per_s'])} / {spaced(r['median_per_s'])}" for r in per_s),
-            *ranges,
+            *(framework.median_range(ratios[batch], k) for k in ("wall", "cpu")),
         ]
 
-    lines = framework.table(
-        [
-            "batch",
-            *(f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS),
-            "coupled / none, wall: median (range)",
-            "coupled / none, CPU: median (range)",
-        ],
-        map(cells, sorted(ratios)),
-    )
+    heads = [f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS]
+    heads += [f"coupled / none, {k}: median (range)" for k in ("wall", "CPU")]
+    lines = framework.table(["batch", *heads], map(cells, sorted(ratios)))
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"
@@ -191,18 +192,11 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-ROOFLINE = framework.Benchmark(("benchmarks/roofline.py",))
-
-
 def render_roofline(data: dict[str, Any]) -> str:
+    heads = [f"{commit}: ms per call, wall / CPU" for commit in (data["commit"], "now")]
+    heads += [f"speed-up, {k}: median (range)" for k in ("wall", "CPU")]
     lines = framework.table(
-        [
-            "numba threads",
-            f"{data['commit']}: ms per call, wall / CPU",
-            "now: ms per call, wall / CPU",
-            "speed-up, wall: median (range)",
-            "speed-up, CPU: median (range)",
-        ],
+        ["numba threads", *heads],
         (
             [
                 r["threads"],
@@ -244,16 +238,6 @@ def render_roofline(data: dict[str, Any]) -> str:
         *framework.footer(data, "roofline", data["command"]),
     ]
     return "\n".join(lines) + "\n"
-
-
-QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
-"""The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
-added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
-TRAINING_COMMAND: tuple[str, ...] = tuple(
-    "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
-    "--env-kwargs speed=1.5".split()
-)
-"""The README's command; ``-f`` (an empty log folder) is added."""
 
 
 def measure_quick_preset() -> dict[str, Any]:
