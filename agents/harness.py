@@ -135,13 +135,63 @@ def search_part(
     report: Reporter,
     problem: Callable[[], Problem],
 ) -> Part:
-    """One search on ``budget`` evaluations (less the polish's share), then its polish."""
-    seed = prepared.job.seed  # part 0's (one start is the plain run); the others spawn from it
+    """One search on ``budget`` evaluations less the polish's share, through the budgeted
+    vector-env evaluator and checked (its best feasible stroke, else its best reward's), then
+    its polish on what the search left, with its certificate."""
+    job, task, kwargs, dim = prepared.job, prepared.task, prepared.env_kwargs, prepared.dim
+    seed = job.seed  # part 0's (one start is the plain run); the others spawn from it
     if index > 0:
         seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
-    reserve = prepared.polish.reserve(budget, gradient_cost(prepared.dim, prepared.task))
-    found = _search(prepared, seed, budget - reserve, lambda i, e, b: report(i, offset + e, b))
-    return _polish(prepared, found, budget - found.evaluations, reserve, problem)
+    reserve = (config := prepared.polish).reserve(budget, gradient_cost(dim, task))
+    searched = budget - reserve
+    on_batch: Reporter = lambda i, e, b: report(i, offset + e, b)  # noqa: E731
+    evaluator = VectorEnvEvaluator(task, prepared.condition, kwargs, seed, searched, on_batch)
+    with evaluator:
+        where = (task, prepared.condition, task.env_id, kwargs)
+        context = SearchContext(*where, searched, seed, dim, evaluator, on_batch)
+        outcome = prepared.method.search(context)
+    if not evaluator.evaluations <= outcome.evaluations <= searched:
+        raise RuntimeError(
+            f"{job.method} reported {outcome.evaluations} evaluations; it made "
+            f"{evaluator.evaluations} through the harness and its budget is {searched}"
+        )
+    if outcome.best_action.shape != (dim,):
+        raise RuntimeError(
+            f"{job.method} returned a stroke of shape {outcome.best_action.shape}; "
+            f"the action space has dimension {dim}"
+        )
+    found = (outcome.best_action, outcome.best_reward, False, SELECTION_BEST_REWARD)
+    if evaluator.evaluations < outcome.evaluations:
+        # the method evaluated strokes through its own envs (SB3): it chooses, by the same rule
+        # (train/policies.py)
+        found = (*found[:3], SELECTION_METHOD)
+    elif evaluator.best_feasible is not None:
+        found = (*evaluator.best_feasible, True, SELECTION_BEST_FEASIBLE)
+    part = Part("search", seed, *found, Certificate.off(), outcome.evaluations, outcome)
+    if not config.enabled:
+        return part
+    if reserve == 0 or part.selection == SELECTION_METHOD:
+        why = "the method evaluates through its own envs"
+        if reserve == 0:
+            why = "the budget's polish share is below two gradients"
+        certificate = Certificate(method=config.method, status=f"not applicable: {why}")
+        return replace(part, certificate=certificate)
+    # A search that saw no feasible stroke hands over its best-reward one, and the polish starts
+    # there all the same, as from an initial stroke: a policy's stroke a hair outside a margin,
+    # or a short search's, is moved onto the constraints.
+    infeasible, made = part.selection == SELECTION_BEST_REWARD, problem()
+    gradient = _gradient(prepared, made)
+    allowance = budget - part.evaluations
+    result = polish(made, part.action, allowance, config, gradient, infeasible_start=infeasible)
+    evaluations = part.evaluations + result.certificate.evaluations
+    part = replace(part, certificate=result.certificate, evaluations=evaluations)
+    if not result.improved:
+        return part
+    # accepted strokes pass the task's feasibility test, so their reward is their objective
+    polished = SELECTION_REWARD_POLISHED if infeasible else SELECTION_POLISHED
+    return replace(
+        part, action=result.stroke, reward=result.objective, feasible=True, selection=polished
+    )
 
 
 def initial_part(
@@ -173,9 +223,8 @@ def finish_part(
     KKT stop (:func:`finish`), on the ``allowance`` the parts left of the
     budget (each kept ``polish_finish`` of its polish's back for it): the reported stroke is
     the one certified, so one finish serves the run, however many parts it has."""
-    ran = part.certificate.method != "none" and part.certificate.iterations > 0
-    if not prepared.polish.enabled or not part.feasible or not ran or certified(part.certificate):
-        return part  # nothing to finish: the problem is not built
+    if not part.feasible or part.certificate.iterations == 0:  # finish checks the rest
+        return part  # no climb: nothing to finish, the problem is not built
     started = PolishResult(part.action, part.reward, part.certificate, feasible=True)
     if (done := finish(problem(), started, allowance, prepared.polish)) is started:
         return part
@@ -247,63 +296,6 @@ def gradient_cost(dim: int, task: TaskSpec) -> int:
 def _gradient(prepared: PreparedJob, problem: Any) -> AutogradGradient | None:
     # the torch backend differentiates: one model evaluation per gradient instead of 2k + 1
     return AutogradGradient(problem) if prepared.env_kwargs.get("backend") == "torch" else None
-
-
-def _polish(
-    prepared: PreparedJob, part: Part, allowance: int, reserve: int, problem: Callable[[], Problem]
-) -> Part:
-    """The search's part polished on ``allowance`` evaluations, with its certificate."""
-    if not (config := prepared.polish).enabled:
-        return part
-    if reserve == 0 or part.selection == SELECTION_METHOD:
-        why = "the method evaluates through its own envs"
-        if reserve == 0:
-            why = "the budget's polish share is below two gradients"
-        certificate = Certificate(method=config.method, status=f"not applicable: {why}")
-        return replace(part, certificate=certificate)
-    # A search that saw no feasible stroke hands over its best-reward one, and the polish starts
-    # there all the same, as from an initial stroke: a policy's stroke a hair outside a margin,
-    # or a short search's, is moved onto the constraints.
-    infeasible, made = part.selection == SELECTION_BEST_REWARD, problem()
-    gradient = _gradient(prepared, made)
-    result = polish(made, part.action, allowance, config, gradient, infeasible_start=infeasible)
-    evaluations = part.evaluations + result.certificate.evaluations
-    part = replace(part, certificate=result.certificate, evaluations=evaluations)
-    if not result.improved:
-        return part
-    # accepted strokes pass the task's feasibility test, so their reward is their objective
-    polished = SELECTION_REWARD_POLISHED if infeasible else SELECTION_POLISHED
-    return replace(
-        part, action=result.stroke, reward=result.objective, feasible=True, selection=polished
-    )
-
-
-def _search(prepared: PreparedJob, seed: int, budget: int, report: Reporter) -> Part:
-    """The method's search through the budgeted vector-env evaluator, checked; its part,
-    unpolished: its best feasible stroke, else its best reward's."""
-    job, task, kwargs, dim = prepared.job, prepared.task, prepared.env_kwargs, prepared.dim
-    with VectorEnvEvaluator(task, prepared.condition, kwargs, seed, budget, report) as evaluator:
-        where = (task, prepared.condition, task.env_id, kwargs)
-        context = SearchContext(*where, budget, seed, dim, evaluator, report)
-        outcome = prepared.method.search(context)
-    if not evaluator.evaluations <= outcome.evaluations <= budget:
-        raise RuntimeError(
-            f"{job.method} reported {outcome.evaluations} evaluations; it made "
-            f"{evaluator.evaluations} through the harness and its budget is {budget}"
-        )
-    if outcome.best_action.shape != (dim,):
-        raise RuntimeError(
-            f"{job.method} returned a stroke of shape {outcome.best_action.shape}; "
-            f"the action space has dimension {dim}"
-        )
-    found = (outcome.best_action, outcome.best_reward, False, SELECTION_BEST_REWARD)
-    if evaluator.evaluations < outcome.evaluations:
-        # the method evaluated strokes through its own envs (SB3): it chooses, by the same rule
-        # (train/policies.py)
-        found = (*found[:3], SELECTION_METHOD)
-    elif evaluator.best_feasible is not None:
-        found = (*evaluator.best_feasible, True, SELECTION_BEST_FEASIBLE)
-    return Part("search", seed, *found, Certificate.off(), outcome.evaluations, outcome)
 
 
 def prepare_job(
