@@ -21,7 +21,7 @@ import functools
 import math
 import time
 import warnings
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -458,11 +458,12 @@ def run_job(
         evaluations = sum(part.evaluations for part in parts)
         if evaluations > budget:  # every part counts its own; never over its share
             raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
-        again = reevaluate(env, prepared.task, prepared.condition, prepared.job.seed, chosen.action)
+        seed, action = prepared.job.seed, chosen.action
+        again, env_config = reevaluate(env, prepared.task, prepared.condition, seed, action)
         if not chosen.feasible and chosen.kind == "initial":
             # an infeasible initial stroke has no search reward: the re-evaluation's is its own
-            chosen = replace(chosen, reward=again.reward)
-        search_reward, action = chosen.reward, chosen.action
+            chosen = replace(chosen, reward=again["reward"])
+        search_reward = chosen.reward
         # the searches' (evaluations, best reward so far) one after another, over the whole run
         history: list[list[int | float]] = []
         offset, best = 0, -math.inf
@@ -471,8 +472,8 @@ def run_job(
                 best = max(best, value)
                 history.append([int(offset + e), float(best)])
             offset += part.evaluations
-        if not np.isclose(again.reward, search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
-            differs = f"re-evaluated reward {again.reward!r} differs from the search's"
+        if not np.isclose(again["reward"], search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
+            differs = f"re-evaluated reward {again['reward']!r} differs from the search's"
             message = f"{prepared.job.label()}: {differs} {search_reward!r}"
             warnings.warn(message, RuntimeWarning, stacklevel=2)
         # the record's results (:data:`agents.records.RESULTS`) from the re-evaluation
@@ -482,7 +483,7 @@ def run_job(
             "condition_name": prepared.condition.name,
             "condition_unit": prepared.condition.unit,
             "evaluations": int(evaluations),
-            **stepped_results(again.reward, again.info, action),  # what a reuse checks again
+            **again,  # what a reuse checks again
             "search_reward": search_reward,
             "selection": chosen.selection,
             "normalised_stroke": action.tolist(),
@@ -494,25 +495,9 @@ def run_job(
                 if chosen.outcome is None
                 else chosen.outcome.config
             ),
-            "env": to_jsonable(again.env_config),
+            "env": env_config,
             "versions": package_versions(),
             CERTIFICATE: chosen.certificate.to_dict(),
             **({STARTS: [part.summary() for part in parts]} if len(parts) > 1 else {}),
         }
         return Record(job=prepared.job, key=prepared.job.key, results=results)
-
-
-def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
-    """The record's results that one env step of its stroke decides (:data:`agents.verify.CHECKED`):
-    the record (:func:`run_job`) and its check (:mod:`agents.verify`) read a step one way."""
-    info = dict(info)
-    stroke = info.pop("stroke", None)
-    if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...
-        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
-    return {
-        "reward": float(reward),
-        "objective": float(info.get("objective", reward)),
-        "feasible": bool(info.get("feasible", True)),
-        "stroke": to_jsonable(stroke),
-        "metrics": to_jsonable(info),
-    }

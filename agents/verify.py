@@ -13,8 +13,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.evaluator import NATIVE_VECTOR_ENV, reevaluate
-from agents.harness import PreparedJob, stepped_results
+from agents.evaluator import NATIVE_VECTOR_ENV, reevaluate, stepped_results
+from agents.harness import PreparedJob
 from agents.jobs import Job
 from agents.records import Record
 from agents.tasks import TaskSpec, get_task
@@ -86,8 +86,7 @@ def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> 
         condition = spec.condition(record.job.condition)
         made = {**kwargs, condition.name: condition.value}
         with gym.make(spec.env_id, disable_env_checker=True, **made) as env:
-            again = reevaluate(env, spec, condition, record.job.seed, action)
-        stepped.append(stepped_results(again.reward, again.info, action))
+            stepped.append(reevaluate(env, spec, condition, record.job.seed, action)[0])
     return stepped
 
 
