@@ -129,11 +129,6 @@ def package_versions() -> dict[str, Any]:
     return versions
 
 
-def _checksum(payload: Mapping[str, Any]) -> str:
-    text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
 @dataclass(frozen=True)
 class Record:
     """What one :class:`Job` found: the job, its key and its results (:data:`RESULTS`, each an
@@ -242,12 +237,12 @@ class Record:
     @property
     def checksum(self) -> str:
         """SHA-256 of the schema, key, job and results as JSON (sorted keys, no spaces)."""
-        return _checksum(self._payload())
+        text = json.dumps(self._payload(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON form (the file format): schema, key, checksum, job, results."""
-        payload = self._payload()
-        return {**payload, "checksum": _checksum(payload)}
+        return {**self._payload(), "checksum": self.checksum}
 
     @classmethod
     def from_dict(cls, data: Any) -> Record:
