@@ -22,7 +22,7 @@ import math
 import time
 import warnings
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import gymnasium as gym
@@ -76,7 +76,7 @@ class PreparedJob:
     """The ``info`` metric the task maximises under these keywords."""
     dim: int
     """Dimension of the action box."""
-    polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
+    polish: PolishConfig
     """The local polish after the search (its settings are the ``polish*`` method settings)."""
 
     def describe(self) -> str:
@@ -144,7 +144,10 @@ def search_part(
         seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
     reserve = (config := prepared.polish).reserve(budget, gradient_cost(dim, task))
     searched = budget - reserve
-    on_batch: Reporter = lambda i, e, b: report(i, offset + e, b)  # noqa: E731
+
+    def on_batch(iteration: int, evaluations: int, best: float) -> None:  # over the whole run
+        report(iteration, offset + evaluations, best)
+
     evaluator = VectorEnvEvaluator(task, prepared.condition, kwargs, seed, searched, on_batch)
     with evaluator:
         where = (task, prepared.condition, task.env_id, kwargs)
