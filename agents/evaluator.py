@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -138,21 +138,13 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         return self._best_stroke_action.copy(), self._best.reward
 
 
-@dataclass(frozen=True)
-class Reevaluation:
-    """One single-env step of a stroke, after a reset: what the record reports."""
-
-    reward: float
-    info: dict[str, Any]
-    env_config: dict[str, Any] | None
-    """The env's configuration as a plain dict (insect, model options, penalty, ...), if any."""
-
-
 def reevaluate(
     env: gym.Env, task: TaskSpec, condition: Condition, seed: int, action: np.ndarray
-) -> Reevaluation:
+) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """Evaluate ``action`` once more in ``env``, a single env of the task reset with ``seed``:
-    the same reward as in the search (one shared core), independent of the search's state."""
+    the same reward as in the search (one shared core), independent of the search's state. Its
+    :func:`stepped_results` and the env's configuration as plain JSON (insect, model options,
+    penalty, ...; None for an env without one)."""
     env.reset(seed=seed, options={task.declared_condition.keyword: condition.value})
     _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
     config = getattr(env.unwrapped, "config", None)  # a dataclass, as plain JSON, if it has one
@@ -161,4 +153,21 @@ def reevaluate(
         env_config = to_jsonable(config)
         if callable(describe := getattr(config, "describe", None)):
             env_config["description"] = describe()
-    return Reevaluation(float(reward), dict(info), env_config)
+    return stepped_results(reward, info, action), env_config
+
+
+def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
+    """The record's results that one env step of its stroke decides
+    (:data:`agents.verify.CHECKED`): the record (:func:`agents.harness.run_job`) and its check
+    (:mod:`agents.verify`) read a step one way."""
+    info = dict(info)
+    stroke = info.pop("stroke", None)
+    if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...
+        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
+    return {
+        "reward": float(reward),
+        "objective": float(info.get("objective", reward)),
+        "feasible": bool(info.get("feasible", True)),
+        "stroke": to_jsonable(stroke),
+        "metrics": to_jsonable(info),
+    }

@@ -21,8 +21,8 @@ import functools
 import math
 import time
 import warnings
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, replace
 from typing import Any
 
 import gymnasium as gym
@@ -76,7 +76,7 @@ class PreparedJob:
     """The ``info`` metric the task maximises under these keywords."""
     dim: int
     """Dimension of the action box."""
-    polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
+    polish: PolishConfig
     """The local polish after the search (its settings are the ``polish*`` method settings)."""
 
     def describe(self) -> str:
@@ -135,13 +135,66 @@ def search_part(
     report: Reporter,
     problem: Callable[[], Problem],
 ) -> Part:
-    """One search on ``budget`` evaluations (less the polish's share), then its polish."""
-    seed = prepared.job.seed  # part 0's (one start is the plain run); the others spawn from it
+    """One search on ``budget`` evaluations less the polish's share, through the budgeted
+    vector-env evaluator and checked (its best feasible stroke, else its best reward's), then
+    its polish on what the search left, with its certificate."""
+    job, task, kwargs, dim = prepared.job, prepared.task, prepared.env_kwargs, prepared.dim
+    seed = job.seed  # part 0's (one start is the plain run); the others spawn from it
     if index > 0:
         seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
-    reserve = prepared.polish.reserve(budget, gradient_cost(prepared.dim, prepared.task))
-    found = _search(prepared, seed, budget - reserve, lambda i, e, b: report(i, offset + e, b))
-    return _polish(prepared, found, budget - found.evaluations, reserve, problem)
+    reserve = (config := prepared.polish).reserve(budget, gradient_cost(dim, task))
+    searched = budget - reserve
+
+    def on_batch(iteration: int, evaluations: int, best: float) -> None:  # over the whole run
+        report(iteration, offset + evaluations, best)
+
+    evaluator = VectorEnvEvaluator(task, prepared.condition, kwargs, seed, searched, on_batch)
+    with evaluator:
+        where = (task, prepared.condition, task.env_id, kwargs)
+        context = SearchContext(*where, searched, seed, dim, evaluator, on_batch)
+        outcome = prepared.method.search(context)
+    if not evaluator.evaluations <= outcome.evaluations <= searched:
+        raise RuntimeError(
+            f"{job.method} reported {outcome.evaluations} evaluations; it made "
+            f"{evaluator.evaluations} through the harness and its budget is {searched}"
+        )
+    if outcome.best_action.shape != (dim,):
+        raise RuntimeError(
+            f"{job.method} returned a stroke of shape {outcome.best_action.shape}; "
+            f"the action space has dimension {dim}"
+        )
+    found = (outcome.best_action, outcome.best_reward, False, SELECTION_BEST_REWARD)
+    if evaluator.evaluations < outcome.evaluations:
+        # the method evaluated strokes through its own envs (SB3): it chooses, by the same rule
+        # (train/policies.py)
+        found = (*found[:3], SELECTION_METHOD)
+    elif evaluator.best_feasible is not None:
+        found = (*evaluator.best_feasible, True, SELECTION_BEST_FEASIBLE)
+    part = Part("search", seed, *found, Certificate.off(), outcome.evaluations, outcome)
+    if not config.enabled:
+        return part
+    if reserve == 0 or part.selection == SELECTION_METHOD:
+        why = "the method evaluates through its own envs"
+        if reserve == 0:
+            why = "the budget's polish share is below two gradients"
+        certificate = Certificate(method=config.method, status=f"not applicable: {why}")
+        return replace(part, certificate=certificate)
+    # A search that saw no feasible stroke hands over its best-reward one, and the polish starts
+    # there all the same, as from an initial stroke: a policy's stroke a hair outside a margin,
+    # or a short search's, is moved onto the constraints.
+    infeasible, made = part.selection == SELECTION_BEST_REWARD, problem()
+    gradient = _gradient(prepared, made)
+    allowance = budget - part.evaluations
+    result = polish(made, part.action, allowance, config, gradient, infeasible_start=infeasible)
+    evaluations = part.evaluations + result.certificate.evaluations
+    part = replace(part, certificate=result.certificate, evaluations=evaluations)
+    if not result.improved:
+        return part
+    # accepted strokes pass the task's feasibility test, so their reward is their objective
+    polished = SELECTION_REWARD_POLISHED if infeasible else SELECTION_POLISHED
+    return replace(
+        part, action=result.stroke, reward=result.objective, feasible=True, selection=polished
+    )
 
 
 def initial_part(
@@ -173,9 +226,8 @@ def finish_part(
     KKT stop (:func:`finish`), on the ``allowance`` the parts left of the
     budget (each kept ``polish_finish`` of its polish's back for it): the reported stroke is
     the one certified, so one finish serves the run, however many parts it has."""
-    ran = part.certificate.method != "none" and part.certificate.iterations > 0
-    if not prepared.polish.enabled or not part.feasible or not ran or certified(part.certificate):
-        return part  # nothing to finish: the problem is not built
+    if not part.feasible or part.certificate.iterations == 0:  # finish checks the rest
+        return part  # no climb: nothing to finish, the problem is not built
     started = PolishResult(part.action, part.reward, part.certificate, feasible=True)
     if (done := finish(problem(), started, allowance, prepared.polish)) is started:
         return part
@@ -247,63 +299,6 @@ def gradient_cost(dim: int, task: TaskSpec) -> int:
 def _gradient(prepared: PreparedJob, problem: Any) -> AutogradGradient | None:
     # the torch backend differentiates: one model evaluation per gradient instead of 2k + 1
     return AutogradGradient(problem) if prepared.env_kwargs.get("backend") == "torch" else None
-
-
-def _polish(
-    prepared: PreparedJob, part: Part, allowance: int, reserve: int, problem: Callable[[], Problem]
-) -> Part:
-    """The search's part polished on ``allowance`` evaluations, with its certificate."""
-    if not (config := prepared.polish).enabled:
-        return part
-    if reserve == 0 or part.selection == SELECTION_METHOD:
-        why = "the method evaluates through its own envs"
-        if reserve == 0:
-            why = "the budget's polish share is below two gradients"
-        certificate = Certificate(method=config.method, status=f"not applicable: {why}")
-        return replace(part, certificate=certificate)
-    # A search that saw no feasible stroke hands over its best-reward one, and the polish starts
-    # there all the same, as from an initial stroke: a policy's stroke a hair outside a margin,
-    # or a short search's, is moved onto the constraints.
-    infeasible, made = part.selection == SELECTION_BEST_REWARD, problem()
-    gradient = _gradient(prepared, made)
-    result = polish(made, part.action, allowance, config, gradient, infeasible_start=infeasible)
-    evaluations = part.evaluations + result.certificate.evaluations
-    part = replace(part, certificate=result.certificate, evaluations=evaluations)
-    if not result.improved:
-        return part
-    # accepted strokes pass the task's feasibility test, so their reward is their objective
-    polished = SELECTION_REWARD_POLISHED if infeasible else SELECTION_POLISHED
-    return replace(
-        part, action=result.stroke, reward=result.objective, feasible=True, selection=polished
-    )
-
-
-def _search(prepared: PreparedJob, seed: int, budget: int, report: Reporter) -> Part:
-    """The method's search through the budgeted vector-env evaluator, checked; its part,
-    unpolished: its best feasible stroke, else its best reward's."""
-    job, task, kwargs, dim = prepared.job, prepared.task, prepared.env_kwargs, prepared.dim
-    with VectorEnvEvaluator(task, prepared.condition, kwargs, seed, budget, report) as evaluator:
-        where = (task, prepared.condition, task.env_id, kwargs)
-        context = SearchContext(*where, budget, seed, dim, evaluator, report)
-        outcome = prepared.method.search(context)
-    if not evaluator.evaluations <= outcome.evaluations <= budget:
-        raise RuntimeError(
-            f"{job.method} reported {outcome.evaluations} evaluations; it made "
-            f"{evaluator.evaluations} through the harness and its budget is {budget}"
-        )
-    if outcome.best_action.shape != (dim,):
-        raise RuntimeError(
-            f"{job.method} returned a stroke of shape {outcome.best_action.shape}; "
-            f"the action space has dimension {dim}"
-        )
-    found = (outcome.best_action, outcome.best_reward, False, SELECTION_BEST_REWARD)
-    if evaluator.evaluations < outcome.evaluations:
-        # the method evaluated strokes through its own envs (SB3): it chooses, by the same rule
-        # (train/policies.py)
-        found = (*found[:3], SELECTION_METHOD)
-    elif evaluator.best_feasible is not None:
-        found = (*evaluator.best_feasible, True, SELECTION_BEST_FEASIBLE)
-    return Part("search", seed, *found, Certificate.off(), outcome.evaluations, outcome)
 
 
 def prepare_job(
@@ -466,11 +461,12 @@ def run_job(
         evaluations = sum(part.evaluations for part in parts)
         if evaluations > budget:  # every part counts its own; never over its share
             raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
-        again = reevaluate(env, prepared.task, prepared.condition, prepared.job.seed, chosen.action)
+        seed, action = prepared.job.seed, chosen.action
+        again, env_config = reevaluate(env, prepared.task, prepared.condition, seed, action)
         if not chosen.feasible and chosen.kind == "initial":
             # an infeasible initial stroke has no search reward: the re-evaluation's is its own
-            chosen = replace(chosen, reward=again.reward)
-        search_reward, action = chosen.reward, chosen.action
+            chosen = replace(chosen, reward=again["reward"])
+        search_reward = chosen.reward
         # the searches' (evaluations, best reward so far) one after another, over the whole run
         history: list[list[int | float]] = []
         offset, best = 0, -math.inf
@@ -479,8 +475,8 @@ def run_job(
                 best = max(best, value)
                 history.append([int(offset + e), float(best)])
             offset += part.evaluations
-        if not np.isclose(again.reward, search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
-            differs = f"re-evaluated reward {again.reward!r} differs from the search's"
+        if not np.isclose(again["reward"], search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
+            differs = f"re-evaluated reward {again['reward']!r} differs from the search's"
             message = f"{prepared.job.label()}: {differs} {search_reward!r}"
             warnings.warn(message, RuntimeWarning, stacklevel=2)
         # the record's results (:data:`agents.records.RESULTS`) from the re-evaluation
@@ -490,7 +486,7 @@ def run_job(
             "condition_name": prepared.condition.name,
             "condition_unit": prepared.condition.unit,
             "evaluations": int(evaluations),
-            **stepped_results(again.reward, again.info, action),  # what a reuse checks again
+            **again,  # what a reuse checks again
             "search_reward": search_reward,
             "selection": chosen.selection,
             "normalised_stroke": action.tolist(),
@@ -502,25 +498,9 @@ def run_job(
                 if chosen.outcome is None
                 else chosen.outcome.config
             ),
-            "env": to_jsonable(again.env_config),
+            "env": env_config,
             "versions": package_versions(),
             CERTIFICATE: chosen.certificate.to_dict(),
             **({STARTS: [part.summary() for part in parts]} if len(parts) > 1 else {}),
         }
         return Record(job=prepared.job, key=prepared.job.key, results=results)
-
-
-def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
-    """The record's results that one env step of its stroke decides (:data:`agents.verify.CHECKED`):
-    the record (:func:`run_job`) and its check (:mod:`agents.verify`) read a step one way."""
-    info = dict(info)
-    stroke = info.pop("stroke", None)
-    if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...
-        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
-    return {
-        "reward": float(reward),
-        "objective": float(info.get("objective", reward)),
-        "feasible": bool(info.get("feasible", True)),
-        "stroke": to_jsonable(stroke),
-        "metrics": to_jsonable(info),
-    }

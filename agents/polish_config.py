@@ -24,18 +24,14 @@ from tandem_env.physics.checks import count, finite_real, is_real
 POLISH_METHODS: tuple[str, ...] = ("none", "slsqp", "trust-constr")
 #: The polish each search method gets when none is given (others: none).
 POLISH_DEFAULTS: Mapping[str, str] = {"cmaes": "slsqp", "pso": "slsqp"}
-#: Method settings (``method_config`` keys, ``--method-config``) that configure the polish.
+#: Method settings (``method_config`` keys, ``--method-config``) that configure the polish, by
+#: the :class:`PolishConfig` field each sets: its numbers as ``polish_<field>``, the run's parts
+#: by their own names.
 POLISH_SETTINGS: Mapping[str, str] = {
     "polish": "method",
-    "polish_share": "share",
-    "polish_step": "step",
-    "polish_tolerance": "tolerance",
     "polish_iterations": "max_iterations",
-    "polish_optimality": "optimality",
-    "polish_finish": "finish",
-    "starts": "starts",
-    "initial": "initial",
-    "initial_share": "initial_share",
+    **{f"polish_{name}": name for name in ("share", "step", "tolerance", "optimality", "finish")},
+    **{name: name for name in ("starts", "initial", "initial_share")},
 }
 #: Most independent searches one run may split its budget into (``starts``).
 MAX_STARTS = 64

@@ -129,20 +129,6 @@ def package_versions() -> dict[str, Any]:
     return versions
 
 
-def _result(name: str) -> property:
-    return property(lambda self: self.results[name], doc=RESULTS[name])
-
-
-def _job_field(name: str, doc: str) -> property:
-    # The job's fields read through the record (``record.seed`` is ``record.job.seed``).
-    return property(lambda self: getattr(self.job, name), doc=doc)
-
-
-def _checksum(payload: Mapping[str, Any]) -> str:
-    text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
 @dataclass(frozen=True)
 class Record:
     """What one :class:`Job` found: the job, its key and its results (:data:`RESULTS`, each an
@@ -187,10 +173,15 @@ class Record:
                     "infeasible reward)"
                 )
 
-    method = _job_field("method", 'Method spec, e.g. ``"pso"``, ``"policy:runs/ppo"``.')
-    task = _job_field("task", 'Task name, e.g. ``"level"`` or ``"accelerate"``.')
-    seed = _job_field("seed", "Seed of the method (and of the envs' first reset).")
-    budget = _job_field("budget", "Allowed model evaluations (= env steps = strokes evaluated).")
+    def __getattr__(self, name: str) -> Any:
+        """The job's ``method``, ``task``, ``seed`` and ``budget`` (``record.seed`` is
+        ``record.job.seed``) and each key of :data:`RESULTS` without a property of its own
+        (``record.objective``), read through the record."""
+        if name in ("method", "task", "seed", "budget"):
+            return getattr(self.job, name)
+        if name in RESULTS:
+            return self.results[name]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     @property
     def condition(self) -> Condition:
@@ -246,12 +237,12 @@ class Record:
     @property
     def checksum(self) -> str:
         """SHA-256 of the schema, key, job and results as JSON (sorted keys, no spaces)."""
-        return _checksum(self._payload())
+        text = json.dumps(self._payload(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON form (the file format): schema, key, checksum, job, results."""
-        payload = self._payload()
-        return {**payload, "checksum": _checksum(payload)}
+        return {**self._payload(), "checksum": self.checksum}
 
     @classmethod
     def from_dict(cls, data: Any) -> Record:
@@ -326,9 +317,3 @@ class Record:
             row["insect"] = to_jsonable(insect)
         row["key"] = self.key
         return row
-
-
-# One accessor per results key without its own (``record.objective``), documented from RESULTS.
-for _name in RESULTS:
-    if not hasattr(Record, _name):
-        setattr(Record, _name, _result(_name))

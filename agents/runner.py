@@ -1,6 +1,6 @@
 """The runner: a plan's phases of jobs run once each, resumably, here or on Dask.
 
-A plan (:class:`Plan`, :func:`run_plan`) yields phases (:class:`~agents.progress.Phase`) of
+A plan (:data:`Plan`, :func:`run_plan`) yields phases (:class:`~agents.progress.Phase`) of
 keyed jobs computed from the records of the phases before it; :func:`run_jobs` runs one list.
 Each record is kept in the output's :class:`~agents.store.RecordStore` under its job's key
 (the hash of its configuration and the package version), so a killed run resumes and neither
@@ -20,9 +20,9 @@ import sys
 import time
 import traceback
 import warnings
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import tandem_env
 from agents.dask_cluster import dask_client, parse_scheduler
@@ -438,12 +438,10 @@ class Lookup:
         return {job: self.records[job.key] for job in jobs}
 
 
-class Plan(Protocol):
-    """Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields each
-    phase once the records before it can be looked up. Phases that do not depend on records are
-    given as data instead, a sequence of :class:`Phase`."""
-
-    def __call__(self, found: Lookup) -> Iterator[Phase]: ...
+Plan = Callable[[Lookup], Iterator[Phase]]
+"""Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields each
+phase once the records before it can be looked up. Phases that do not depend on records are
+given as data instead, a sequence of :class:`Phase`."""
 
 
 def look_ahead(plan: Plan | Sequence[Phase], out: Out, cache: CacheOption = True) -> list[Phase]:

@@ -13,8 +13,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.evaluator import NATIVE_VECTOR_ENV, reevaluate
-from agents.harness import PreparedJob, stepped_results
+from agents.evaluator import NATIVE_VECTOR_ENV, reevaluate, stepped_results
+from agents.harness import PreparedJob
 from agents.jobs import Job
 from agents.records import Record
 from agents.tasks import TaskSpec, get_task
@@ -37,14 +37,11 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
     """Key -> why, for each record of ``found`` whose results its stroke does not give in the
     env of its job in ``jobs``, or that cannot be re-evaluated."""
     plain = {key: job.job if isinstance(job, PreparedJob) else job for key, job in jobs.items()}
-    groups: dict[Any, list[list[str]]] = {}  # task and env keywords -> batches of keys
+    groups: dict[Any, list[str]] = {}  # task and env keywords -> keys
     for key in found:
-        batches = groups.setdefault((plain[key].task, plain[key].env_kwargs), [[]])
-        if len(batches[-1]) == _BATCH:
-            batches.append([])
-        batches[-1].append(key)
+        groups.setdefault((plain[key].task, plain[key].env_kwargs), []).append(key)
     why: dict[str, str] = {}
-    for keys in (batch for batches in groups.values() for batch in batches):
+    for keys in (g[i : i + _BATCH] for g in groups.values() for i in range(0, len(g), _BATCH)):
         records = [found[key] for key in keys]
         try:  # a prepared job's task is its spec
             spec = get_task(jobs[keys[0]].task)
@@ -86,8 +83,7 @@ def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> 
         condition = spec.condition(record.job.condition)
         made = {**kwargs, condition.name: condition.value}
         with gym.make(spec.env_id, disable_env_checker=True, **made) as env:
-            again = reevaluate(env, spec, condition, record.job.seed, action)
-        stepped.append(stepped_results(again.reward, again.info, action))
+            stepped.append(reevaluate(env, spec, condition, record.job.seed, action)[0])
     return stepped
 
 

@@ -68,7 +68,7 @@ class QuietStream:
         return getattr(self._stream or sys.stderr, name)
 
 
-class ProgressBar:
+class ProgressBar(contextlib.AbstractContextManager):
     """A tqdm bar over ``total`` model evaluations; ``enabled`` False makes every call a no-op;
     ``waiting`` is shown until its first report (default :data:`COMPILING` or :data:`STARTING`)."""
 
@@ -111,9 +111,6 @@ class ProgressBar:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
-
-    def __enter__(self) -> ProgressBar:
-        return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
