@@ -253,6 +253,12 @@ class FlightConfig:
         return self.OBJECTIVES.metric(self)
 
     @property
+    def available_power(self) -> float:
+        """The power cap [W/kg]: the insect's maximum (90 W/kg, docs/model.md §7), unless the
+        task's condition is the available power (Accelerate's field of that name)."""
+        return self.insect.max_power_per_mass
+
+    @property
     def thrust_split(self) -> str:
         """The thrust/drag reading used (docs/model.md §7)."""
         return self.options.thrust_split

@@ -73,11 +73,6 @@ class LevelFlightConfig(FlightConfig):
         super().__post_init__()
         store_checked(self, "constraint_tolerance", check_real, "", 0.0, 0.999)
 
-    @property
-    def available_power(self) -> float:
-        """Power cap of level flight [W/kg]: the insect's maximum (90 W/kg, docs/model.md §7)."""
-        return self.insect.max_power_per_mass
-
 
 class LevelFlightCore(FlightCore):
     """The condition is the speed; the power cap the insect's maximum."""

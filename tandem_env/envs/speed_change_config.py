@@ -167,11 +167,6 @@ class SpeedChangeConfig(FlightConfig):
         ``target_speed_range``)."""
         return self.speed_envelope
 
-    @property
-    def available_power(self) -> float:
-        """The power cap [W/kg]: the insect's maximum (90 W/kg), as in level flight."""
-        return self.insect.max_power_per_mass
-
     def max_cycle_cost(self) -> float:
         """Largest speed, altitude and energy cost of one cycle inside the bands with power
         within the cap [reward units]: the slowest cycle (the insect's lowest frequency), the
