@@ -221,6 +221,9 @@ class FlightConfig:
             raise refusal(f"{owner}.{chosen}", getattr(self, chosen), allowed)
         if self.CONDITION is not None:  # its envelope, fixed value or range
             normalise_condition(self)
+        for spec in fields(self):  # a task's real fields, each declared with its unit and range
+            if "real" in spec.metadata:
+                store_checked(self, spec.name, check_real, *spec.metadata["real"])
 
     # --- the observed flight condition (read from the fields CONDITION names) ---------------
     @property
