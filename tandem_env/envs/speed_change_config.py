@@ -153,11 +153,6 @@ class SpeedChangeConfig(FlightConfig):
                 )
         object.__setattr__(self, "reward", SpeedChangeReward.build(self.reward))
 
-    @classmethod
-    def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
-        """As :meth:`FlightConfig.from_kwargs`, with ``thrust_split="body"`` unless given."""
-        return super().from_kwargs(**{"options": BODY_SPLIT, **kwargs})
-
     @property
     def envelope(self) -> tuple[float, float]:
         """The target speed's envelope (``speed_envelope``): the condition the training tools
