@@ -203,11 +203,6 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return tuple(self._rng_seeds[i] for i, _ in enumerate(self.np_random))
 
     @property
-    def conditions(self) -> np.ndarray:
-        """(n,) current condition of each sub-env (its declared condition's unit)."""
-        return self._state.copy()
-
-    @property
     def observations(self) -> np.ndarray:
         """(n, ...) current observation of each sub-env (a copy)."""
         return self._observations.copy()
@@ -442,11 +437,6 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     def problem(self) -> FlightProblem:
         """The task as an optimisation problem, its vector env's (:meth:`FlightVectorEnv.problem`)."""
         return self.vector_env.problem()
-
-    @property
-    def condition(self) -> float | None:
-        """The current episode's condition (its declared unit), or None before the first reset."""
-        return float(self.vector_env.conditions[0]) if self.vector_env.started[0] else None
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
