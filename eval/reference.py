@@ -453,7 +453,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 # Okabe-Ito colours, one per objective (readable in colour-blind vision and in grey).
 _COLOURS = dict(efficiency="#0072B2", vertical="#0072B2", horizontal="#D55E00", resultant="#009E73")
-_LINES = {"tear-drop": "-", "real": "--"}
 
 
 def _condition_header(env_id: str) -> str:
@@ -530,7 +529,7 @@ def _absorbed(table: Mapping[str, Any]) -> str:
 def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
     """The optima against the condition: one panel per task, a line per objective and
     planform (solid tear-drop, dashed real), every seed's feasible optimum as a faint dot."""
-    from eval.figures import plt, save
+    from eval.figures import PLANFORM_VARIANT, VARIANT_LINES, plt, save
 
     env_ids = list(dict.fromkeys(s["env_id"] for s in table["series"]))
     fig, axes = plt.subplots(1, len(env_ids), figsize=(5.2 * len(env_ids), 3.8), squeeze=False)
@@ -541,7 +540,7 @@ def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
             colour = _COLOURS.get(series["objective"], "#000000")
             points = [p for p in series["points"] if p["feasible"]]
             x, y = ([p[k] for p in points] for k in ("condition", "objective"))
-            line = _LINES.get(series["planform"], ":")
+            line = VARIANT_LINES[PLANFORM_VARIANT.get(series["planform"], 2)]  # as Figs. 15-16
             label = f"{series['objective']}, {series['planform']}"
             ax.plot(x, y, line, color=colour, marker="o", markersize=3, label=label)
             for p in series["points"]:

@@ -42,35 +42,6 @@ def default_out(record_path: Path) -> Path:
     return (folder.parent if folder.name == "records" else folder) / "show"
 
 
-def load_record(path: Path) -> Record:
-    """The record in ``path``; ValueError with one line saying why it cannot be shown."""
-    if not path.exists():
-        raise ValueError(f"record {path}: no such file")
-    if not path.is_file():
-        raise ValueError(f"record {path}: not a file (give one records/<key>.json file)")
-    try:
-        return read_record(path)
-    except OSError as error:
-        raise ValueError(f"record {path}: cannot read it ({error.strerror or error})") from None
-    except RecordError as error:
-        raise ValueError(str(error).splitlines()[0]) from None
-
-
-def record_history(record: Record, path: Path, frames: int = DEFAULT_FRAMES) -> Any:
-    """The record's stroke over one cycle (``frames`` samples) with the record's own env
-    keywords; ValueError in one line naming ``path`` for a record the model's own checks
-    refuse (a stroke outside Table 4, a parameter missing, bad env keywords), before drawing."""
-    from eval.studies.kinematics import record_history
-
-    try:
-        return record_history(record, frames)
-    except KeyError as error:
-        reason = f"its stroke has no parameter {error}"
-    except (TypeError, ValueError) as error:
-        reason = str(error).splitlines()[0]
-    raise ValueError(f"record {path}: cannot show it: {reason}")
-
-
 def show(
     record: Record, history: Any, out: Path, fmt: str = "gif", fps: int = DEFAULT_FPS
 ) -> tuple[Path, Path]:
@@ -132,6 +103,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from matplotlib import animation
 
+    from eval.studies.kinematics import record_history
+
     for flag, low, high in (("--frames", 8, 720), ("--fps", 1, 100)):
         if not low <= (value := getattr(args, flag[2:])) <= high:
             parser.error(f"{flag} {value}; allowed: an integer from {low} to {high}")
@@ -140,14 +113,27 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             f"--format {args.format} needs the {ANIMATION_FORMATS[args.format]} program, which "
             "is not installed here; use --format gif (Pillow, installed with matplotlib)"
         )
-    path = Path(args.record)
+    path = Path(args.record)  # each refusal one line naming it, before any drawing
+    if not path.is_file():
+        why = "not a file (give one records/<key>.json file)" if path.exists() else "no such file"
+        parser.error(f"record {path}: {why}")
     try:
-        record = load_record(path)
-        out = Path(args.out) if args.out is not None else default_out(path)
+        record = read_record(path)
+    except OSError as error:
+        parser.error(f"record {path}: cannot read it ({error.strerror or error})")
+    except RecordError as error:
+        parser.error(str(error).splitlines()[0])
+    out = Path(args.out) if args.out is not None else default_out(path)
+    try:
         output_directory(out)
-        history = record_history(record, path, args.frames)
     except ValueError as error:
         parser.error(str(error))
+    try:  # the model's own checks (a stroke outside Table 4, a parameter missing, bad keywords)
+        history = record_history(record, args.frames)
+    except KeyError as error:
+        parser.error(f"record {path}: cannot show it: its stroke has no parameter {error}")
+    except (TypeError, ValueError) as error:
+        parser.error(f"record {path}: cannot show it: {str(error).splitlines()[0]}")
     picture, movie = show(record, history, out, args.format, args.fps)
     print(f"wrote {picture} and {movie}", file=sys.stderr)
     return 0

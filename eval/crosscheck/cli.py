@@ -269,16 +269,6 @@ def locked(out_dir: Path) -> FolderLock:
     )
 
 
-def adopt_old_runs(out_dir: Path) -> None:
-    """Move the records of ``OUT/runs`` (where they were kept before the runner ran the
-    solver's runs: the same files) into the store's ``OUT/records``, once; one already there is
-    kept. The store checks each when its run asks for it."""
-    for path in (out_dir / "runs").glob("*.json"):
-        (out_dir / RECORDS_DIR).mkdir(exist_ok=True)
-        if not (out_dir / RECORDS_DIR / path.name).exists():
-            path.replace(out_dir / RECORDS_DIR / path.name)
-
-
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from agents.dask_cluster import SchedulerUnreachable
     from agents.runner import JobsFailed, run_jobs
@@ -304,7 +294,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     ]
     try:
         with locked(args.out):
-            adopt_old_runs(args.out)
+            # the records of OUT/runs (kept there before the runner ran the solver's runs: the
+            # same files) move into the store's OUT/records once; one already there is kept
+            for path in (args.out / "runs").glob("*.json"):
+                (args.out / RECORDS_DIR).mkdir(exist_ok=True)
+                if not (args.out / RECORDS_DIR / path.name).exists():
+                    path.replace(args.out / RECORDS_DIR / path.name)
             jobs = [SolverJob(run, version) for p in planned for run in p.runs.values()]
             summary = run_jobs(jobs, args.out, **run_options(args))
             if not args.quiet:

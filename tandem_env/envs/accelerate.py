@@ -5,7 +5,7 @@ Its declaration (:data:`ACCELERATE`), config, batched core, vector env and singl
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -13,7 +13,7 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import AVAILABLE_POWER_LIMITS, DRAGONFLY, SPEED_LIMITS, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import FlightConfig, check_real, store_checked
+from .config import FlightConfig
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 
 #: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
@@ -84,12 +84,8 @@ class AccelerateConfig(FlightConfig):
     available_power_envelope: tuple[float, float] = ACCELERATE.condition.envelope  # type: ignore[union-attr]
     """(low, high) [W/kg] mapped to the observation's [-1, 1], holding every power used;
     default the paper's sweep, 50 to 90 W/kg."""
-    speed: float = 0.0
+    speed: float = field(default=0.0, metadata={"real": ("m/s", *SPEED_LIMITS)})
     """Flight speed V [m/s], fixed and not observed (default 0: take-off or escape from hover)."""
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        store_checked(self, "speed", check_real, "m/s", *SPEED_LIMITS)
 
     def describe(self) -> str:
         return f"{super().describe()}, V = {self.speed:g} m/s, objective {self.objective}"

@@ -203,11 +203,6 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return tuple(self._rng_seeds[i] for i, _ in enumerate(self.np_random))
 
     @property
-    def conditions(self) -> np.ndarray:
-        """(n,) current condition of each sub-env (its declared condition's unit)."""
-        return self._state.copy()
-
-    @property
     def observations(self) -> np.ndarray:
         """(n, ...) current observation of each sub-env (a copy)."""
         return self._observations.copy()
@@ -232,12 +227,14 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     def start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
         """Start new episodes in sub-envs ``index`` drawing from ``rng(k)`` (the generator of
         the k-th); their reset info columns. The single env passes its own ``np_random``."""
-        columns = self._start(index, rng, options)
+        state = self.core.draw(index.size, rng, options)
+        self._state[index] = state
+        self._observations[index] = self.core.observe(state)
         self._started[index] = True
         self._ended[index] = False
         for i in index:
             self._last[i] = None
-        return columns
+        return self.core.reset_columns(state)
 
     def reset_envs(
         self,
@@ -297,14 +294,6 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         """The episode state of n sub-envs before their first reset, ``_state``: the core's
         ``draw`` and ``step`` take it, read (``_state[index]``) and set by sub-env."""
         self._state = np.full(n, np.nan)
-
-    def _start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
-        """Draw new episodes for sub-envs ``index``, set their state and observations; their
-        reset info columns."""
-        state = self.core.draw(index.size, rng, options)
-        self._state[index] = state
-        self._observations[index] = self.core.observe(state)
-        return self.core.reset_columns(state)
 
     def _fly(self, index: np.ndarray, physical: np.ndarray) -> tuple[Any, np.ndarray]:
         """Evaluate the strokes of started sub-envs ``index``; (batch, observations after)."""
@@ -431,14 +420,9 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
 
     metadata: ClassVar[dict[str, Any]] = dict(_METADATA)
     vector_class: ClassVar[type[FlightVectorEnv]] = FlightVectorEnv
-    #: The task's config class (``vector_class.config_class``), for the registry's look-ups.
-    config_class: ClassVar[type[FlightConfig]] = FlightConfig
     vector_env: FlightVectorEnv
-    """The vector env this env steps: ``vector_class`` with ``num_envs=1``, autoreset disabled."""
-
-    def __init_subclass__(cls, **kwargs: Any) -> None:
-        super().__init_subclass__(**kwargs)
-        cls.config_class = cls.vector_class.config_class
+    """The vector env this env steps: ``vector_class`` with ``num_envs=1``, autoreset disabled
+    (the registry finds the task's ``config_class`` on it)."""
 
     def __init__(
         self, render_mode: str | None = None, *, config: FlightConfig | None = None, **kwargs: Any
@@ -453,11 +437,6 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     def problem(self) -> FlightProblem:
         """The task as an optimisation problem, its vector env's (:meth:`FlightVectorEnv.problem`)."""
         return self.vector_env.problem()
-
-    @property
-    def condition(self) -> float | None:
-        """The current episode's condition (its declared unit), or None before the first reset."""
-        return float(self.vector_env.conditions[0]) if self.vector_env.started[0] else None
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

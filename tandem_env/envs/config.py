@@ -47,16 +47,17 @@ def insect_keyword(value: Any) -> dict[str, Any] | None:
 
 
 def _overridden(
-    task: str, kwargs: dict[str, Any], name: str, keywords: Mapping[str, str], allowed: str
+    config: type, kwargs: dict[str, Any], name: str, keywords: Mapping[str, str], allowed: str
 ) -> Any:
-    """``kwargs[name]`` (``ModelOptions`` or ``PenaltyConfig``; default its defaults) with the
-    fields that flat ``keywords`` (keyword -> field) of ``kwargs`` set over it, all popped; its
-    ValueError names each field by the keyword given for it."""
+    """``kwargs[name]`` (``ModelOptions`` or ``PenaltyConfig``; default the ``config`` class's)
+    with the fields that flat ``keywords`` (keyword -> field) of ``kwargs`` set over it, all
+    popped; its ValueError names each field by the keyword given for it."""
     kind = {"options": ModelOptions, "penalty": PenaltyConfig}[name]
+    default = getattr(config, name, kind())  # a plain field default: SpeedChange's body split
     value = kwargs.pop(name, None)
-    value = kind() if value is None else value
+    value = default if value is None else value
     if not isinstance(value, kind):
-        raise ValueError(f"{task}: {name} = {value!r}; allowed: {allowed}")
+        raise ValueError(f"{config.name}: {name} = {value!r}; allowed: {allowed}")
     given = {field: keyword for keyword, field in keywords.items() if keyword in kwargs}
     if not given:
         return value
@@ -68,7 +69,7 @@ def _overridden(
         for name, keyword in given.items():
             if keyword != name:
                 text = re.sub(rf"\b{owner}\.{name}\b", f"{keyword} ({owner}.{name})", text)
-        raise ValueError(f"{task}: {text}") from None
+        raise ValueError(f"{config.name}: {text}") from None
 
 
 def normalise_condition(config: FlightConfig) -> None:
@@ -221,6 +222,9 @@ class FlightConfig:
             raise refusal(f"{owner}.{chosen}", getattr(self, chosen), allowed)
         if self.CONDITION is not None:  # its envelope, fixed value or range
             normalise_condition(self)
+        for spec in fields(self):  # a task's real fields, each declared with its unit and range
+            if "real" in spec.metadata:
+                store_checked(self, spec.name, check_real, *spec.metadata["real"])
 
     # --- the observed flight condition (read from the fields CONDITION names) ---------------
     @property
@@ -253,6 +257,12 @@ class FlightConfig:
         return self.OBJECTIVES.metric(self)
 
     @property
+    def available_power(self) -> float:
+        """The power cap [W/kg]: the insect's maximum (90 W/kg, docs/model.md §7), unless the
+        task's condition is the available power (Accelerate's field of that name)."""
+        return self.insect.max_power_per_mass
+
+    @property
     def thrust_split(self) -> str:
         """The thrust/drag reading used (docs/model.md §7)."""
         return self.options.thrust_split
@@ -273,8 +283,9 @@ class FlightConfig:
     def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
         """Build the config from the ``gym.make`` kwargs: the fields, ``planform`` and
         ``rotational_coefficient`` (C_r of both wings [-], Table 3) over ``insect``, every
-        :data:`MODEL_OPTION_KWARGS` over ``options``, ``penalty_weight`` / ``penalty_offset``
-        over ``penalty``; a condition's old keyword is refused naming the new one."""
+        :data:`MODEL_OPTION_KWARGS` over ``options`` (default the config's own),
+        ``penalty_weight`` / ``penalty_offset`` over ``penalty``; a condition's old keyword is
+        refused naming the new one."""
         renamed = cls.CONDITION.renamed() if cls.CONDITION is not None else {}
         old = sorted(set(kwargs) & set(renamed))
         if old:
@@ -306,7 +317,7 @@ class FlightConfig:
             if name in kwargs and not is_real(kwargs[name]):
                 raise ValueError(f"{cls.name}: {name} = {kwargs[name]!r}; allowed: a finite number")
         allowed = "a tandem_env.ModelOptions"
-        options = _overridden(cls.name, kwargs, "options", MODEL_OPTION_KWARGS, allowed)
+        options = _overridden(cls, kwargs, "options", MODEL_OPTION_KWARGS, allowed)
         penalty = kwargs.get("penalty")
         if isinstance(penalty, Mapping):
             extra = sorted(set(penalty) - {f.name for f in fields(PenaltyConfig)})
@@ -316,7 +327,7 @@ class FlightConfig:
                 )
             kwargs["penalty"] = PenaltyConfig(**penalty)
         allowed = "a PenaltyConfig or a dict of its fields (weight, offset)"
-        penalty = _overridden(cls.name, kwargs, "penalty", _PENALTY_KWARGS, allowed)
+        penalty = _overridden(cls, kwargs, "penalty", _PENALTY_KWARGS, allowed)
         return cls(insect=insect, options=options, penalty=penalty, **kwargs)
 
     def describe(self) -> str:

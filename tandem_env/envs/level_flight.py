@@ -5,7 +5,7 @@ Its declaration (:data:`LEVEL_FLIGHT`), config, batched core, vector env and sin
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, get_args, get_type_hints
 
 import numpy as np
@@ -13,7 +13,7 @@ from gymnasium.vector import VectorEnv
 
 from ..physics import SPEED_LIMITS, ModelOptions, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import MODEL_OPTION_KWARGS, FlightConfig, check_real, store_checked
+from .config import MODEL_OPTION_KWARGS, FlightConfig
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 
 
@@ -66,17 +66,8 @@ class LevelFlightConfig(FlightConfig):
     speed_envelope: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # type: ignore[union-attr]
     """(low, high) [m/s] mapped to the observation's [-1, 1], holding every speed used;
     default the paper's range, 0.25 to 2.0 m/s."""
-    constraint_tolerance: float = 0.02
+    constraint_tolerance: float = field(default=0.02, metadata={"real": ("", 0.0, 0.999)})
     """Band of the equalities L = W and T = D, as a fraction of W [-] (docs/model.md §7.5)."""
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        store_checked(self, "constraint_tolerance", check_real, "", 0.0, 0.999)
-
-    @property
-    def available_power(self) -> float:
-        """Power cap of level flight [W/kg]: the insect's maximum (90 W/kg, docs/model.md §7)."""
-        return self.insect.max_power_per_mass
 
 
 class LevelFlightCore(FlightCore):

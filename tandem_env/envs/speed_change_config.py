@@ -112,12 +112,12 @@ class SpeedChangeConfig(FlightConfig):
     max_cycles: int = 48
     """Wing-beat cycles per episode before truncation [-]: 48 cycles of 22-33 ms (30-45 Hz)
     are 1.1-1.6 s of flight."""
-    altitude_band: float = 0.5
+    altitude_band: float = field(default=0.5, metadata={"real": ("m", 1e-6, 1e3)})
     """|h| [m] beyond which the episode terminates (h: altitude relative to the start)."""
     forward_speed_band: tuple[float, float] = (0.0, MAX_BAND_SPEED)
     """(low, high) [m/s]: a forward speed u outside terminates the episode; u's observation is
     normalised over it. Within 0 (forward flight only) and :data:`MAX_BAND_SPEED`."""
-    vertical_speed_scale: float = 2.0
+    vertical_speed_scale: float = field(default=2.0, metadata={"real": ("m/s", 1e-6, 1e3)})
     """|w| [m/s] mapped to ±1 in the observation (clipped beyond; w is not bounded)."""
     reward: SpeedChangeReward = field(default_factory=SpeedChangeReward)
     """Weights of the reward's terms (``gym.make`` accepts a dict of some of them)."""
@@ -151,14 +151,7 @@ class SpeedChangeConfig(FlightConfig):
                     f"{owner}.speed_envelope {end} = {value:g} m/s; allowed: a speed inside "
                     f"{owner}.forward_speed_band = ({band[0]:g}, {band[1]:g}) m/s"
                 )
-        for name, unit in (("altitude_band", "m"), ("vertical_speed_scale", "m/s")):
-            store_checked(self, name, check_real, unit, 1e-6, 1e3)
         object.__setattr__(self, "reward", SpeedChangeReward.build(self.reward))
-
-    @classmethod
-    def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
-        """As :meth:`FlightConfig.from_kwargs`, with ``thrust_split="body"`` unless given."""
-        return super().from_kwargs(**{"options": BODY_SPLIT, **kwargs})
 
     @property
     def envelope(self) -> tuple[float, float]:
@@ -166,11 +159,6 @@ class SpeedChangeConfig(FlightConfig):
         vary (``condition_key``; its fixed value and range are ``target_speed`` and
         ``target_speed_range``)."""
         return self.speed_envelope
-
-    @property
-    def available_power(self) -> float:
-        """The power cap [W/kg]: the insect's maximum (90 W/kg), as in level flight."""
-        return self.insect.max_power_per_mass
 
     def max_cycle_cost(self) -> float:
         """Largest speed, altitude and energy cost of one cycle inside the bands with power

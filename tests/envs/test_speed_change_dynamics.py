@@ -10,8 +10,15 @@ import pytest
 
 import tandem_env as te
 from tandem_env.envs import SPEED_CHANGE_ID, SpeedChangeEnv
-from tandem_env.envs.dynamics import advance, body_drag, cycle_time, flight_path, net_force
-from tandem_env.envs.speed_change import Flight, SpeedChangeCore
+from tandem_env.envs.speed_change import (
+    Flight,
+    SpeedChangeCore,
+    advance,
+    body_drag,
+    cycle_time,
+    flight_path,
+    net_force,
+)
 from tandem_env.envs.speed_change_config import SpeedChangeConfig
 from tandem_env.physics.stroke import N_PER_WING, TABLE_4
 
