@@ -203,6 +203,11 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return tuple(self._rng_seeds[i] for i, _ in enumerate(self.np_random))
 
     @property
+    def conditions(self) -> np.ndarray:
+        """(n,) current condition of each sub-env (its declared condition's unit)."""
+        return self._state.copy()
+
+    @property
     def observations(self) -> np.ndarray:
         """(n, ...) current observation of each sub-env (a copy)."""
         return self._observations.copy()
@@ -433,6 +438,11 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         self.core = self.vector_env.core
         self.action_space = action_space()
         self.observation_space = self.vector_env.single_observation_space
+
+    @property
+    def condition(self) -> float | None:
+        """The current episode's condition (its declared unit), or None before the first reset."""
+        return float(self.vector_env.conditions[0]) if self.vector_env.started[0] else None
 
     def problem(self) -> FlightProblem:
         """The task as an optimisation problem, its vector env's (:meth:`FlightVectorEnv.problem`)."""

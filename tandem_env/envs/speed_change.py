@@ -281,6 +281,11 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
     core: SpeedChangeCore
 
     @property
+    def conditions(self) -> np.ndarray:
+        """(n,) target speed of each sub-env's episode [m/s]."""
+        return self._state.target_speed.copy()
+
+    @property
     def flight(self) -> Flight:
         """The state of every sub-env's episode (a copy)."""
         return self._state[np.arange(self.num_envs)]
