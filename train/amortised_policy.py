@@ -327,12 +327,6 @@ class AmortisedPolicy(RunPolicy):
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
         return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
 
-    def strokes_of(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
-        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (default: each
-        condition's, :meth:`branch_at`), no gradient."""
-        with torch.no_grad():
-            return np.clip(self.forward(conditions, branches).numpy(), -1.0, 1.0)
-
     def assemble(self, u: Any, branches: np.ndarray) -> Any:
         """(n, 28) strokes from the tanh outputs ``u`` (n, 26) of the ``branches`` (n,)."""
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
@@ -343,14 +337,16 @@ class AmortisedPolicy(RunPolicy):
         out[:, list(HARMONICS)] = torch.as_tensor(self.harmonics[np.asarray(branches)])
         return out
 
-    def strokes(self, conditions: Sequence[float]) -> np.ndarray:
-        """The normalised strokes (n, 28) in [-1, 1] at ``conditions`` (one forward pass)."""
+    def strokes(self, conditions: Sequence[float], branches: Any = None) -> np.ndarray:
+        """The normalised strokes (n, 28) in [-1, 1] at ``conditions`` (one forward pass, no
+        gradient) of the given ``branches`` (default: each condition's, :meth:`branch_at`)."""
         values = np.asarray([float(c) for c in conditions], dtype=np.float64)
         if values.size == 0:
             raise ValueError("conditions is empty; allowed: one or more conditions")
         if not np.all(np.isfinite(values)):
             raise ValueError(f"conditions = {list(values)!r}; allowed: finite numbers")
-        return self.strokes_of(values)
+        with torch.no_grad():
+            return np.clip(self.forward(values, branches).numpy(), -1.0, 1.0)
 
     # --- what the harness and the envelope read ---------------------------------------------
     @property

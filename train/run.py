@@ -2,8 +2,8 @@
 :class:`~train.config.TrainConfig`, learning with evaluations, checkpoints, Monitor and
 TensorBoard logs, and the resume of a killed run; :func:`learn_in_memory` is the lean variant of
 the harness's ``ppo`` / ``sac`` (no files, a budget of env steps). Callbacks: physical metrics
-to TensorBoard (:class:`PhysicsLogger`: SB3's logger only knows rewards), an EvalCallback that
-resumes, checkpoints and Ctrl-C (:class:`RunCheckpoint`).
+to TensorBoard (:class:`PhysicsLogger`: SB3's logger only knows rewards), SB3's
+EvalCallback resumed (:func:`resume_evaluations`), checkpoints and Ctrl-C (:class:`RunCheckpoint`).
 
 The env stacks. Training (bottom up): the batched SB3 adapter (one model call per step) ->
 :class:`StrokeRecorder` (raw rewards: the best stroke seen, the evaluation count) ->
@@ -280,41 +280,31 @@ class PhysicsLogger(BaseCallback):
         return True
 
 
-class ResumableEvalCallback(EvalCallback):
-    """``EvalCallback`` that, on a resumed run, starts from ``evaluations.npz``'s rows up to the
-    checkpoint and their best mean reward (SB3's rewrites the file from memory)."""
-
-    def __init__(self, *args: Any, resume_from_step: int | None = None, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        self._resume_from_step = resume_from_step
-
-    def _init_callback(self) -> None:
-        super()._init_callback()
-        if self._resume_from_step is None or self.log_path is None:
-            return
-        path = Path(self.log_path if self.log_path.endswith(".npz") else f"{self.log_path}.npz")
-        if not path.is_file():
-            return
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                steps, results, lengths = (data[k] for k in ("timesteps", "results", "ep_lengths"))
-                successes = data["successes"] if "successes" in data.files else None
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
-            warnings.warn(
-                f"{path} cannot be read ({type(error).__name__}: {error}); the evaluation "
-                "history starts again from this segment",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-            return
-        if len(steps):
-            self.best_mean_reward = float(np.max(np.mean(results, axis=1)))
-        keep = steps <= self._resume_from_step
-        self.evaluations_timesteps = [int(s) for s in steps[keep]]
-        self.evaluations_results = [list(map(float, r)) for r in results[keep]]
-        self.evaluations_length = [list(map(int, n)) for n in lengths[keep]]
-        if successes is not None and len(successes) == len(steps):
-            self.evaluations_successes = [list(map(bool, s)) for s in successes[keep]]
+def resume_evaluations(callback: EvalCallback, path: Path, step: int) -> None:
+    """Start a resumed run's ``callback`` (SB3's rewrites ``evaluations.npz``, ``path``, from
+    memory) from the file's rows up to the checkpoint's ``step`` and their best mean reward."""
+    if not path.is_file():
+        return
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            steps, results, lengths = (data[k] for k in ("timesteps", "results", "ep_lengths"))
+            successes = data["successes"] if "successes" in data.files else None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+        warnings.warn(
+            f"{path} cannot be read ({type(error).__name__}: {error}); the evaluation "
+            "history starts again from this segment",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        return
+    if len(steps):
+        callback.best_mean_reward = float(np.max(np.mean(results, axis=1)))
+    keep = steps <= step
+    callback.evaluations_timesteps = [int(s) for s in steps[keep]]
+    callback.evaluations_results = [list(map(float, r)) for r in results[keep]]
+    callback.evaluations_length = [list(map(int, n)) for n in lengths[keep]]
+    if successes is not None and len(successes) == len(steps):
+        callback.evaluations_successes = [list(map(bool, s)) for s in successes[keep]]
 
 
 class RunCheckpoint(BaseCallback):
@@ -413,21 +403,21 @@ def train(config: TrainConfig) -> TrainResult:
 
         hooks: list[BaseCallback] = [PhysicsLogger(recorder), checkpoints]
         if config.eval_freq > 0:
-            hooks.append(
-                ResumableEvalCallback(
-                    eval_env,
-                    n_eval_episodes=eval_env.num_envs,
-                    eval_freq=max(config.eval_freq // hp.n_envs, 1),
-                    best_model_save_path=str(layout.run_dir),
-                    log_path=str(layout.run_dir),
-                    deterministic=True,
-                    verbose=config.verbose,
-                    callback_on_new_best=None
-                    if hp.normalize is None
-                    else ConvertCallback(save_best_statistics),
-                    resume_from_step=None if checkpoint is None else start_step,
-                )
+            evaluation = EvalCallback(
+                eval_env,
+                n_eval_episodes=eval_env.num_envs,
+                eval_freq=max(config.eval_freq // hp.n_envs, 1),
+                best_model_save_path=str(layout.run_dir),
+                log_path=str(layout.run_dir),  # its evaluations.npz: layout.evaluations
+                deterministic=True,
+                verbose=config.verbose,
+                callback_on_new_best=None
+                if hp.normalize is None
+                else ConvertCallback(save_best_statistics),
             )
+            if checkpoint is not None:
+                resume_evaluations(evaluation, layout.evaluations, start_step)
+            hooks.append(evaluation)
         started = time.perf_counter()
         with checkpoints.catching():
             model.learn(
