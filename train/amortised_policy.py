@@ -469,19 +469,17 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     """The policy of an amortised run folder (or of the latest run it names), every file checked
     before the network is built (the weights: a state_dict ``torch.load(weights_only=True)``
     reads, of the network's names and shapes, finite); ValueError naming the file at fault."""
-    layout, args_file, args = read_run_folder(
-        run_dir, "a folder written by python -m train --algo amortised"
-    )
+    layout, args = read_run_folder(run_dir, "a folder written by python -m train --algo amortised")
     folder, env_id = layout.run_dir, layout.env_id
     if args.get("algo") != AMORTISED:
         raise ValueError(
-            f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "
-            f"python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
+            f"{layout.args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run "
+            f"of python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
         )
     if env_id not in REFERENCE_GRID:
         raise ValueError(
-            f"{args_file}: env = {env_id!r}; allowed: an env an amortised policy is trained for, "
-            f"{', '.join(REFERENCE_GRID)}"
+            f"{layout.args_file}: env = {env_id!r}; allowed: an env an amortised policy is "
+            f"trained for, {', '.join(REFERENCE_GRID)}"
         )
     path = layout.policy_file
     if not path.is_file():

@@ -15,7 +15,6 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.envs.registration import check_env_id, config_class
-from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.amortised_policy import load_policy as load_amortised
 from train.config import AMORTISED, check_algo, resolve_hyperparams
 from train.run import ConditionGrid
@@ -58,14 +57,14 @@ class TrainedPolicy(RunPolicy):
         the folder or file and what is wrong."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-        layout, args_file, args = read_run_folder(run_dir, RUN_FOLDER)
+        layout, args = read_run_folder(run_dir, RUN_FOLDER)
         run_dir = layout.run_dir
         env_id = layout.env_id
         try:
             algo = check_algo(str(args.get("algo")))
         except ValueError as error:
-            raise ValueError(f"{args_file}: {error}") from None
-        check_env_id(env_id, f"{args_file}: env")
+            raise ValueError(f"{layout.args_file}: {error}") from None
+        check_env_id(env_id, f"{layout.args_file}: env")
         entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
         env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
         best = which == "best" and layout.best_model.is_file()
@@ -98,9 +97,7 @@ class TrainedPolicy(RunPolicy):
             raise ValueError("conditions is empty; allowed: one or more conditions")
         # the training env's own observation path: reset at each condition through the env's
         # reset option, so the normalisation over the envelope is the one the policy learned
-        venv: VecEnv = ConditionGrid(
-            make_sb3_vec_env(self.env_id, n_envs=len(values), seed=0, **self.env_kwargs), values
-        )
+        venv: VecEnv = ConditionGrid(self.env_id, self.env_kwargs, values, seed=0)
         if self.normalizer_path is not None:
             normalizer = read_normalizer(self.normalizer_path)
             normalizer.set_venv(venv)
@@ -137,7 +134,7 @@ def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
     amortised run (one weights file: ``which`` best and final are the same)."""
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-    layout, _, args = read_run_folder(run_dir, RUN_FOLDER)
+    layout, args = read_run_folder(run_dir, RUN_FOLDER)
     if args.get("algo") == AMORTISED or layout.policy_file.is_file():
         return load_amortised(layout.run_dir)
     return TrainedPolicy.load(layout.run_dir, which)
