@@ -11,7 +11,7 @@ import hashlib
 import sys
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -48,8 +48,6 @@ CITATIONS: dict[str, str] = {
 
 # The budget notices this process has printed (TrainingMethod.search).
 _ANNOUNCED: set[tuple[Any, ...]] = set()
-# Settings of the training methods that are not hyperparameter overrides.
-_TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
 # The suffixes of the files a run's policy is read from (train.run_folder.RunLayout, and an
 # amortised run's weights and policy.json): what PolicyMethod.identity hashes.
 _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
@@ -332,7 +330,8 @@ def training_factory(algo: str, argument: str | None, config: Mapping[str, Any])
     if argument is not None:
         raise ValueError(f"method {algo!r} takes no ':' argument; got {algo}:{argument}")
     settings = dict(config)
-    extra = {key: settings.pop(key) for key in _TRAINING_SETTINGS if key in settings}
+    # TrainingMethod's own settings (after algo and overrides); the rest override hyperparameters
+    extra = {f.name: settings.pop(f.name) for f in fields(TrainingMethod)[2:] if f.name in settings}
     return TrainingMethod(algo, overrides=settings, **extra)
 
 
