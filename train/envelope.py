@@ -41,7 +41,6 @@ def evaluate_envelope(
     *,
     conditions: Sequence[float] | None = None,
     which: str = "best",
-    progress: bool = False,
 ) -> list[dict[str, Any]]:
     """Record the run's policy at each condition (default the task's declared sweep),
     one job each, run and stored in turn by the runner (:func:`agents.runner.run_jobs`); a rerun
@@ -76,7 +75,7 @@ def evaluate_envelope(
             )[0]
             for value in values
         ]
-        records = run_jobs(jobs, out, progress=progress, rerun=True).records
+        records = run_jobs(jobs, out, progress=False, rerun=True).records
     rows = []
     for value, job in zip(values, jobs, strict=True):
         record = records[job.job.key]
