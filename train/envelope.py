@@ -128,16 +128,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if declared is not None:
             values = ", ".join(f"{v:g}" for v in declared.sweep)
             sweeps.append(f"{name}: {declared.keyword} {values} {declared.unit}")
-    parser, args = command(
+    with command(
         EnvelopeOptions,
         argv,
         prog="tandem-envelope" if script else "python -m train.envelope",
         epilog=f"The tasks' sweeps (the default --conditions): {'; '.join(sweeps)}",
-    )
-    try:
+    ) as args:
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
-    except ValueError as error:
-        parser.error(str(error))
     for row in rows:
         print(
             f"{row['condition']} = {row['condition_value']:g} {row['condition_unit']}: "
