@@ -202,7 +202,6 @@ class TrainingMethod:
         # Where the progress bar ends: every evaluation spent, training's and the final one's
         # (the harness's evaluator counted only the final one, and reported 1).
         context.report(len(history), evaluations, max(reward for _, reward in history))
-        assert training.hp is not None
         return SearchOutcome(
             best_action=best_action,
             best_reward=best_reward,
@@ -210,8 +209,8 @@ class TrainingMethod:
             history=tuple(history),
             config={
                 "method": self.algo,
-                "hyperparams": to_jsonable(dict(training.hp.saved), default=repr),
-                "n_envs": training.hp.n_envs,
+                "hyperparams": to_jsonable(dict(hp.saved), default=repr),
+                "n_envs": hp.n_envs,
                 "training_timesteps": training.num_timesteps,
                 "budget_unused": unused,
                 "result": "best stroke seen (training strokes and the final deterministic one)",
@@ -259,7 +258,7 @@ class TrainingMethod:
         best = (recorder.best_reward, recorder.best_action, recorder.best_info)
         history = tuple(recorder.history)
         training = TrainResult(
-            self.algo, context.env_id, recorder.evaluations, *best, history=history, hp=hp
+            self.algo, context.env_id, recorder.evaluations, *best, history=history
         )
         found = (final.rewards[0], final.objective[0], final.feasible[0])
         return training, _final(*found, final_action)

@@ -74,8 +74,6 @@ class TrainResult:
     """The final policy's deterministic stroke at each evaluation condition (metrics)."""
     history: tuple[tuple[int, float], ...] = ()
     """(env steps of this segment, best reward so far) after every vector step."""
-    hp: Hyperparams | None = None
-    """The hyperparameters it trained with (``config.yml``)."""
 
 
 # --- the env stacks ------------------------------------------------------------------------------
@@ -458,7 +456,6 @@ def train(config: TrainConfig) -> TrainResult:
             **seen,
             final_evaluation=evaluate_deterministic(model, eval_env),
             history=tuple(recorder.history),
-            hp=hp,
         )
         segment = {"resumed_from": resumed_from, "end_step": steps, "wall_time_s": wall_time}
         segments = [*run.segments, {**segment, **seen}]
