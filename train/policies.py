@@ -257,9 +257,7 @@ class TrainingMethod:
         final = context.evaluate_batch(final_action[None, :])
         best = (recorder.best_reward, recorder.best_action, recorder.best_info)
         history = tuple(recorder.history)
-        training = TrainResult(
-            self.algo, context.env_id, recorder.evaluations, *best, history=history
-        )
+        training = TrainResult(recorder.evaluations, *best, history=history)
         found = (final.rewards[0], final.objective[0], final.feasible[0])
         return training, _final(*found, final_action)
 

@@ -58,8 +58,6 @@ SAC_LOG_EVERY = 2_048
 class TrainResult:
     """What a run ended with."""
 
-    algo: str
-    env_id: str
     num_timesteps: int
     best_reward: float
     """Best raw reward of any stroke the training env evaluated in this segment."""
@@ -447,8 +445,6 @@ def train(config: TrainConfig) -> TrainResult:
         seen = {k: getattr(recorder, k) for k in ("best_reward", "best_action", "best_info")}
         steps = int(model.num_timesteps)
         result = TrainResult(
-            algo=config.algo,
-            env_id=config.env_id,
             run_dir=layout.run_dir,
             num_timesteps=steps,
             wall_time=wall_time,
@@ -465,8 +461,8 @@ def train(config: TrainConfig) -> TrainResult:
         rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
         best = segments[best_index(feasible, rewards)]
         data = {
-            "algo": result.algo,
-            "env_id": result.env_id,
+            "algo": config.algo,
+            "env_id": config.env_id,
             "num_timesteps": steps,
             "n_envs": hp.n_envs,
             "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),
