@@ -217,12 +217,12 @@ def evaluate_deterministic(
         returns[playing] += np.asarray(rewards, dtype=np.float64)[playing]
         lengths[playing] += 1
         for k in np.flatnonzero(playing & np.asarray(dones, dtype=bool)):
-            rows[k] = {key: v for key, v in infos[k].items() if key not in dropped}
-            rows[k].update(  # type: ignore[union-attr]
-                reward=float(returns[k]),
-                episode_length=int(lengths[k]),
-                action=[float(a) for a in first_actions[k]],
-            )
+            rows[k] = {
+                **{key: v for key, v in infos[k].items() if key not in dropped},
+                "reward": float(returns[k]),
+                "episode_length": int(lengths[k]),
+                "action": [float(a) for a in first_actions[k]],
+            }
         if all(row is not None for row in rows):
             return rows  # type: ignore[return-value]
     raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
