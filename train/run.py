@@ -379,9 +379,7 @@ def train(config: TrainConfig) -> TrainResult:
             normalize=hp.normalize if checkpoint is None else None,
         )
         if hp.normalize is not None and checkpoint is not None:
-            normalizer = read_normalizer(checkpoint.vecnormalize)
-            normalizer.set_venv(venv)
-            venv, normalizer.training = normalizer, True
+            venv = read_normalizer(checkpoint.vecnormalize, venv, training=True)
         eval_env = make_evaluation_env(
             config.env_id, run.env_kwargs, config.seed + 10_000, normalize=hp.normalize
         )

@@ -99,11 +99,7 @@ class TrainedPolicy(RunPolicy):
         # reset option, so the normalisation over the envelope is the one the policy learned
         venv: VecEnv = ConditionGrid(self.env_id, self.env_kwargs, values, seed=0)
         if self.normalizer_path is not None:
-            normalizer = read_normalizer(self.normalizer_path)
-            normalizer.set_venv(venv)
-            normalizer.training = False
-            normalizer.norm_reward = False
-            venv = normalizer
+            venv = read_normalizer(self.normalizer_path, venv, training=False, norm_reward=False)
         try:
             observations = venv.reset()
         finally:

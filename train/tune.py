@@ -295,7 +295,7 @@ def open_study(config: TuneConfig) -> Any:
     study = optuna.create_study(
         study_name=name, storage=storage, sampler=sampler, direction="maximize", load_if_exists=True
     )
-    if not study.get_trials(deepcopy=False):
+    if not trials:  # a new study (or one without trials) starts from the shipped entry
         study.enqueue_trial(dict(SHIPPED[config.algo]))
     return study
 
