@@ -462,6 +462,12 @@ class TrainConfig:
                 f"with amortised: {', '.join(allowed)}"
             )
 
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
+        it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
+        settings = {ARGS_KEYS.get(f.name, f.name): getattr(self, f.name) for f in fields(self)}
+        return plain({"made_by": MADE_BY, **settings})
+
 
 #: The ``made_by`` entry of ``args.yml`` that marks a run folder written by ``python -m train``.
 MADE_BY = "tandem-env python -m train"

@@ -12,7 +12,7 @@ import os
 import re
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -23,7 +23,6 @@ from tandem_env.io.files import FolderLock
 from train import saved
 from train.config import (
     AMORTISED,
-    ARGS_KEYS,
     FOLDER_NAME,
     MADE_BY,
     Hyperparams,
@@ -430,15 +429,11 @@ class RunFolder:
         return model
 
     def start(self, settings: Mapping[str, Any]) -> None:
-        """A run from step 0 writes ``config.yml`` (``settings``) and ``args.yml`` (every field
-        of its config, under its zoo name where it has one, :data:`~train.config.ARGS_KEYS`,
-        marked as written by this project, ``made_by``) and drops an earlier start's evaluation
-        curve; a continued run keeps its own."""
+        """A run from step 0 writes ``config.yml`` (``settings``) and ``args.yml`` and drops an
+        earlier start's evaluation curve; a continued run keeps its own."""
         if self.checkpoint is None:
-            config = self.config
-            args = {ARGS_KEYS.get(f.name, f.name): getattr(config, f.name) for f in fields(config)}
             write_yaml(self.layout.config_file, settings)
-            write_yaml(self.layout.args_file, {"made_by": MADE_BY, **args})
+            write_yaml(self.layout.args_file, self.config.to_dict())
             self.layout.evaluations.unlink(missing_ok=True)
 
 
