@@ -42,7 +42,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvStepRetu
 
 from agents.selection import BestStroke, best_index
 from tandem_env.envs.registration import config_class
-from tandem_env.envs.sb3 import make_sb3_vec_env
+from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
 from tandem_env.io.files import write_json_atomic
 from train.config import Hyperparams, TrainConfig, resolve_hyperparams, step_granularity
 from train.run_folder import Checkpoint, Interrupted, RunFolder, RunLayout
@@ -136,16 +136,13 @@ class StrokeRecorder(VecEnvWrapper):
 
 
 class ConditionGrid(VecEnvWrapper):
-    """The batched adapter of ``env_id`` with one sub-env per condition, resetting sub-env i at
-    ``conditions[i]`` at every reset (through the env's reset option, e.g. ``speed``)."""
+    """Resets sub-env i of the batched adapter ``venv`` at ``conditions[i]`` at every reset
+    (through the env's reset option, e.g. ``speed``)."""
 
-    def __init__(
-        self, env_id: str, env_kwargs: Mapping[str, Any], conditions: Sequence[float], seed: int
-    ) -> None:
-        self.conditions = tuple(float(c) for c in conditions)
-        venv = make_sb3_vec_env(env_id, n_envs=len(self.conditions), seed=seed, **env_kwargs)
+    def __init__(self, venv: TandemVecEnv, conditions: Sequence[float]) -> None:
         super().__init__(venv)
         self.option_key = venv.vector_env.core.option_key
+        self.conditions = tuple(float(c) for c in conditions)
 
     def reset(self) -> np.ndarray:
         self.venv.set_options([{self.option_key: c} for c in self.conditions])
@@ -190,7 +187,8 @@ def make_evaluation_env(
         sweep = () if declared is None else declared.sweep
         inside = tuple(c for c in sweep if low - 1e-9 <= c <= high + 1e-9)
         conditions = inside if len(inside) >= 2 else (low, 0.5 * (low + high), high)
-    venv: VecEnv = VecMonitor(ConditionGrid(env_id, env_kwargs, conditions, seed))
+    base = make_sb3_vec_env(env_id, n_envs=len(conditions), seed=seed, **env_kwargs)
+    venv: VecEnv = VecMonitor(ConditionGrid(base, conditions))
     if normalize is not None:
         venv = VecNormalize(venv, **{**normalize, "training": False, "norm_reward": False})
     return venv

@@ -15,6 +15,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.envs.registration import check_env_id, config_class
+from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.amortised_policy import load_policy as load_amortised
 from train.config import AMORTISED, check_algo, resolve_hyperparams
 from train.run import ConditionGrid
@@ -97,7 +98,9 @@ class TrainedPolicy(RunPolicy):
             raise ValueError("conditions is empty; allowed: one or more conditions")
         # the training env's own observation path: reset at each condition through the env's
         # reset option, so the normalisation over the envelope is the one the policy learned
-        venv: VecEnv = ConditionGrid(self.env_id, self.env_kwargs, values, seed=0)
+        venv: VecEnv = ConditionGrid(
+            make_sb3_vec_env(self.env_id, n_envs=len(values), seed=0, **self.env_kwargs), values
+        )
         if self.normalizer_path is not None:
             venv = read_normalizer(self.normalizer_path, venv, training=False, norm_reward=False)
         try:
