@@ -126,7 +126,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         return 0
     # The info key of the env's observed condition (speed, available_power, target_speed).
-    condition_key = config_class(result.env_id).condition_key
+    condition_key = config_class(config.env_id).condition_key
     episodic = any(row["episode_length"] > 1 for row in result.final_evaluation)
     print(f"{result.num_timesteps} steps in {result.wall_time:.1f} s", end="")
     if episodic:

@@ -200,7 +200,7 @@ def hand_overs(policy: AmortisedPolicy, problem: Any, penalty_weight: float) -> 
         grid = np.linspace(policy.domains[branch + 1, 0], policy.domains[branch, 1], SWITCH_SAMPLES)
         both = np.concatenate([grid, grid])
         found = problem.evaluate(
-            policy.strokes_of(both, np.repeat([branch, branch + 1], grid.size)), both
+            policy.strokes(both, np.repeat([branch, branch + 1], grid.size)), both
         )
         value = found.objective - penalty_weight * np.sum(np.maximum(0.0, -found.margins), axis=1)
         own, next_ = value[: grid.size], value[grid.size :]

@@ -275,16 +275,13 @@ class HeldOutOptions:
 
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
-    parser, args = command(HeldOutOptions, argv)
-    try:
+    with command(HeldOutOptions, argv) as args:
         report = evaluate_held_out(
             args.run,
             polish_budget=args.polish,
             records=args.records,
             cmaes_budget=args.cmaes_budget,
         )
-    except ValueError as error:
-        parser.error(str(error))
     print(format_report(report))
     if args.out is not None:
         write_json_atomic(args.out, report)

@@ -327,12 +327,6 @@ class AmortisedPolicy(RunPolicy):
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
         return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
 
-    def strokes_of(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
-        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (default: each
-        condition's, :meth:`branch_at`), no gradient."""
-        with torch.no_grad():
-            return np.clip(self.forward(conditions, branches).numpy(), -1.0, 1.0)
-
     def assemble(self, u: Any, branches: np.ndarray) -> Any:
         """(n, 28) strokes from the tanh outputs ``u`` (n, 26) of the ``branches`` (n,)."""
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
@@ -343,14 +337,16 @@ class AmortisedPolicy(RunPolicy):
         out[:, list(HARMONICS)] = torch.as_tensor(self.harmonics[np.asarray(branches)])
         return out
 
-    def strokes(self, conditions: Sequence[float]) -> np.ndarray:
-        """The normalised strokes (n, 28) in [-1, 1] at ``conditions`` (one forward pass)."""
+    def strokes(self, conditions: Sequence[float], branches: Any = None) -> np.ndarray:
+        """The normalised strokes (n, 28) in [-1, 1] at ``conditions`` (one forward pass, no
+        gradient) of the given ``branches`` (default: each condition's, :meth:`branch_at`)."""
         values = np.asarray([float(c) for c in conditions], dtype=np.float64)
         if values.size == 0:
             raise ValueError("conditions is empty; allowed: one or more conditions")
         if not np.all(np.isfinite(values)):
             raise ValueError(f"conditions = {list(values)!r}; allowed: finite numbers")
-        return self.strokes_of(values)
+        with torch.no_grad():
+            return np.clip(self.forward(values, branches).numpy(), -1.0, 1.0)
 
     # --- what the harness and the envelope read ---------------------------------------------
     @property
@@ -473,19 +469,17 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     """The policy of an amortised run folder (or of the latest run it names), every file checked
     before the network is built (the weights: a state_dict ``torch.load(weights_only=True)``
     reads, of the network's names and shapes, finite); ValueError naming the file at fault."""
-    layout, args_file, args = read_run_folder(
-        run_dir, "a folder written by python -m train --algo amortised"
-    )
+    layout, args = read_run_folder(run_dir, "a folder written by python -m train --algo amortised")
     folder, env_id = layout.run_dir, layout.env_id
     if args.get("algo") != AMORTISED:
         raise ValueError(
-            f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "
-            f"python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
+            f"{layout.args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run "
+            f"of python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
         )
     if env_id not in REFERENCE_GRID:
         raise ValueError(
-            f"{args_file}: env = {env_id!r}; allowed: an env an amortised policy is trained for, "
-            f"{', '.join(REFERENCE_GRID)}"
+            f"{layout.args_file}: env = {env_id!r}; allowed: an env an amortised policy is "
+            f"trained for, {', '.join(REFERENCE_GRID)}"
         )
     path = layout.policy_file
     if not path.is_file():

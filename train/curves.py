@@ -119,11 +119,8 @@ class CurvesOptions:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser, args = command(CurvesOptions, argv)
-    try:
+    with command(CurvesOptions, argv) as args:
         path = plot(args.runs, args.out, args.title)
-    except ValueError as error:
-        parser.error(str(error))
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB)")
     return 0
 

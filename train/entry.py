@@ -92,17 +92,19 @@ def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> A
     return parser
 
 
-def command(cls: type[T], argv: Sequence[str] | None, **settings: Any) -> tuple[Any, T]:
-    """The parser of ``cls`` (:func:`build_parser`; ``prog`` ``python -m <its module>`` and its
-    docstring's first line the description, unless given) and ``cls`` of the command line
-    ``argv``, whose ValueError is the parser's usage error (one line, exit status 2)."""
+@contextlib.contextmanager
+def command(cls: type[T], argv: Sequence[str] | None, **settings: Any) -> Iterator[T]:
+    """``cls`` of the command line ``argv`` for the ``with`` block, parsed by the parser of
+    ``cls`` (:func:`build_parser`; ``prog`` ``python -m <its module>`` and its docstring's first
+    line the description, unless given); a ValueError making it or in the block is the parser's
+    usage error (one line, exit status 2)."""
     module = getattr(sys.modules[cls.__module__].__spec__, "name", cls.__module__)  # not __main__
     settings.setdefault("prog", f"python -m {module}")
     settings.setdefault("description", (cls.__doc__ or "").split("\n\n")[0])
     parser = build_parser(cls, **settings)
     args = parser.parse_args(argv)
     try:
-        return parser, cls(**{f.name: getattr(args, f.name) for f in fields(cls)})
+        yield cls(**{f.name: getattr(args, f.name) for f in fields(cls)})
     except ValueError as error:
         parser.error(str(error))
 

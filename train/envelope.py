@@ -41,7 +41,6 @@ def evaluate_envelope(
     *,
     conditions: Sequence[float] | None = None,
     which: str = "best",
-    progress: bool = False,
 ) -> list[dict[str, Any]]:
     """Record the run's policy at each condition (default the task's declared sweep),
     one job each, run and stored in turn by the runner (:func:`agents.runner.run_jobs`); a rerun
@@ -76,7 +75,7 @@ def evaluate_envelope(
             )[0]
             for value in values
         ]
-        records = run_jobs(jobs, out, progress=progress, rerun=True).records
+        records = run_jobs(jobs, out, progress=False, rerun=True).records
     rows = []
     for value, job in zip(values, jobs, strict=True):
         record = records[job.job.key]
@@ -129,16 +128,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if declared is not None:
             values = ", ".join(f"{v:g}" for v in declared.sweep)
             sweeps.append(f"{name}: {declared.keyword} {values} {declared.unit}")
-    parser, args = command(
+    with command(
         EnvelopeOptions,
         argv,
         prog="tandem-envelope" if script else "python -m train.envelope",
         epilog=f"The tasks' sweeps (the default --conditions): {'; '.join(sweeps)}",
-    )
-    try:
+    ) as args:
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
-    except ValueError as error:
-        parser.error(str(error))
     for row in rows:
         print(
             f"{row['condition']} = {row['condition_value']:g} {row['condition_unit']}: "

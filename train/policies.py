@@ -11,7 +11,7 @@ import hashlib
 import sys
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -48,8 +48,6 @@ CITATIONS: dict[str, str] = {
 
 # The budget notices this process has printed (TrainingMethod.search).
 _ANNOUNCED: set[tuple[Any, ...]] = set()
-# Settings of the training methods that are not hyperparameter overrides.
-_TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
 # The suffixes of the files a run's policy is read from (train.run_folder.RunLayout, and an
 # amortised run's weights and policy.json): what PolicyMethod.identity hashes.
 _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
@@ -204,7 +202,6 @@ class TrainingMethod:
         # Where the progress bar ends: every evaluation spent, training's and the final one's
         # (the harness's evaluator counted only the final one, and reported 1).
         context.report(len(history), evaluations, max(reward for _, reward in history))
-        assert training.hp is not None
         return SearchOutcome(
             best_action=best_action,
             best_reward=best_reward,
@@ -212,8 +209,8 @@ class TrainingMethod:
             history=tuple(history),
             config={
                 "method": self.algo,
-                "hyperparams": to_jsonable(dict(training.hp.saved), default=repr),
-                "n_envs": training.hp.n_envs,
+                "hyperparams": to_jsonable(dict(hp.saved), default=repr),
+                "n_envs": hp.n_envs,
                 "training_timesteps": training.num_timesteps,
                 "budget_unused": unused,
                 "result": "best stroke seen (training strokes and the final deterministic one)",
@@ -260,9 +257,7 @@ class TrainingMethod:
         final = context.evaluate_batch(final_action[None, :])
         best = (recorder.best_reward, recorder.best_action, recorder.best_info)
         history = tuple(recorder.history)
-        training = TrainResult(
-            self.algo, context.env_id, recorder.evaluations, *best, history=history, hp=hp
-        )
+        training = TrainResult(recorder.evaluations, *best, history=history)
         found = (final.rewards[0], final.objective[0], final.feasible[0])
         return training, _final(*found, final_action)
 
@@ -332,7 +327,8 @@ def training_factory(algo: str, argument: str | None, config: Mapping[str, Any])
     if argument is not None:
         raise ValueError(f"method {algo!r} takes no ':' argument; got {algo}:{argument}")
     settings = dict(config)
-    extra = {key: settings.pop(key) for key in _TRAINING_SETTINGS if key in settings}
+    # TrainingMethod's own settings (after algo and overrides); the rest override hyperparameters
+    extra = {f.name: settings.pop(f.name) for f in fields(TrainingMethod)[2:] if f.name in settings}
     return TrainingMethod(algo, overrides=settings, **extra)
 
 

@@ -2,8 +2,8 @@
 :class:`~train.config.TrainConfig`, learning with evaluations, checkpoints, Monitor and
 TensorBoard logs, and the resume of a killed run; :func:`learn_in_memory` is the lean variant of
 the harness's ``ppo`` / ``sac`` (no files, a budget of env steps). Callbacks: physical metrics
-to TensorBoard (:class:`PhysicsLogger`: SB3's logger only knows rewards), an EvalCallback that
-resumes, checkpoints and Ctrl-C (:class:`RunCheckpoint`).
+to TensorBoard (:class:`PhysicsLogger`: SB3's logger only knows rewards), SB3's
+EvalCallback resumed (:func:`resume_evaluations`), checkpoints and Ctrl-C (:class:`RunCheckpoint`).
 
 The env stacks. Training (bottom up): the batched SB3 adapter (one model call per step) ->
 :class:`StrokeRecorder` (raw rewards: the best stroke seen, the evaluation count) ->
@@ -58,8 +58,6 @@ SAC_LOG_EVERY = 2_048
 class TrainResult:
     """What a run ended with."""
 
-    algo: str
-    env_id: str
     num_timesteps: int
     best_reward: float
     """Best raw reward of any stroke the training env evaluated in this segment."""
@@ -74,8 +72,6 @@ class TrainResult:
     """The final policy's deterministic stroke at each evaluation condition (metrics)."""
     history: tuple[tuple[int, float], ...] = ()
     """(env steps of this segment, best reward so far) after every vector step."""
-    hp: Hyperparams | None = None
-    """The hyperparameters it trained with (``config.yml``)."""
 
 
 # --- the env stacks ------------------------------------------------------------------------------
@@ -219,12 +215,12 @@ def evaluate_deterministic(
         returns[playing] += np.asarray(rewards, dtype=np.float64)[playing]
         lengths[playing] += 1
         for k in np.flatnonzero(playing & np.asarray(dones, dtype=bool)):
-            rows[k] = {key: v for key, v in infos[k].items() if key not in dropped}
-            rows[k].update(  # type: ignore[union-attr]
-                reward=float(returns[k]),
-                episode_length=int(lengths[k]),
-                action=[float(a) for a in first_actions[k]],
-            )
+            rows[k] = {
+                **{key: v for key, v in infos[k].items() if key not in dropped},
+                "reward": float(returns[k]),
+                "episode_length": int(lengths[k]),
+                "action": [float(a) for a in first_actions[k]],
+            }
         if all(row is not None for row in rows):
             return rows  # type: ignore[return-value]
     raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
@@ -280,41 +276,31 @@ class PhysicsLogger(BaseCallback):
         return True
 
 
-class ResumableEvalCallback(EvalCallback):
-    """``EvalCallback`` that, on a resumed run, starts from ``evaluations.npz``'s rows up to the
-    checkpoint and their best mean reward (SB3's rewrites the file from memory)."""
-
-    def __init__(self, *args: Any, resume_from_step: int | None = None, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        self._resume_from_step = resume_from_step
-
-    def _init_callback(self) -> None:
-        super()._init_callback()
-        if self._resume_from_step is None or self.log_path is None:
-            return
-        path = Path(self.log_path if self.log_path.endswith(".npz") else f"{self.log_path}.npz")
-        if not path.is_file():
-            return
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                steps, results, lengths = (data[k] for k in ("timesteps", "results", "ep_lengths"))
-                successes = data["successes"] if "successes" in data.files else None
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
-            warnings.warn(
-                f"{path} cannot be read ({type(error).__name__}: {error}); the evaluation "
-                "history starts again from this segment",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-            return
-        if len(steps):
-            self.best_mean_reward = float(np.max(np.mean(results, axis=1)))
-        keep = steps <= self._resume_from_step
-        self.evaluations_timesteps = [int(s) for s in steps[keep]]
-        self.evaluations_results = [list(map(float, r)) for r in results[keep]]
-        self.evaluations_length = [list(map(int, n)) for n in lengths[keep]]
-        if successes is not None and len(successes) == len(steps):
-            self.evaluations_successes = [list(map(bool, s)) for s in successes[keep]]
+def resume_evaluations(callback: EvalCallback, path: Path, step: int) -> None:
+    """Start a resumed run's ``callback`` (SB3's rewrites ``evaluations.npz``, ``path``, from
+    memory) from the file's rows up to the checkpoint's ``step`` and their best mean reward."""
+    if not path.is_file():
+        return
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            steps, results, lengths = (data[k] for k in ("timesteps", "results", "ep_lengths"))
+            successes = data["successes"] if "successes" in data.files else None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+        warnings.warn(
+            f"{path} cannot be read ({type(error).__name__}: {error}); the evaluation "
+            "history starts again from this segment",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        return
+    if len(steps):
+        callback.best_mean_reward = float(np.max(np.mean(results, axis=1)))
+    keep = steps <= step
+    callback.evaluations_timesteps = [int(s) for s in steps[keep]]
+    callback.evaluations_results = [list(map(float, r)) for r in results[keep]]
+    callback.evaluations_length = [list(map(int, n)) for n in lengths[keep]]
+    if successes is not None and len(successes) == len(steps):
+        callback.evaluations_successes = [list(map(bool, s)) for s in successes[keep]]
 
 
 class RunCheckpoint(BaseCallback):
@@ -391,9 +377,7 @@ def train(config: TrainConfig) -> TrainResult:
             normalize=hp.normalize if checkpoint is None else None,
         )
         if hp.normalize is not None and checkpoint is not None:
-            normalizer = read_normalizer(checkpoint.vecnormalize)
-            normalizer.set_venv(venv)
-            venv, normalizer.training = normalizer, True
+            venv = read_normalizer(checkpoint.vecnormalize, venv, training=True)
         eval_env = make_evaluation_env(
             config.env_id, run.env_kwargs, config.seed + 10_000, normalize=hp.normalize
         )
@@ -413,21 +397,21 @@ def train(config: TrainConfig) -> TrainResult:
 
         hooks: list[BaseCallback] = [PhysicsLogger(recorder), checkpoints]
         if config.eval_freq > 0:
-            hooks.append(
-                ResumableEvalCallback(
-                    eval_env,
-                    n_eval_episodes=eval_env.num_envs,
-                    eval_freq=max(config.eval_freq // hp.n_envs, 1),
-                    best_model_save_path=str(layout.run_dir),
-                    log_path=str(layout.run_dir),
-                    deterministic=True,
-                    verbose=config.verbose,
-                    callback_on_new_best=None
-                    if hp.normalize is None
-                    else ConvertCallback(save_best_statistics),
-                    resume_from_step=None if checkpoint is None else start_step,
-                )
+            evaluation = EvalCallback(
+                eval_env,
+                n_eval_episodes=eval_env.num_envs,
+                eval_freq=max(config.eval_freq // hp.n_envs, 1),
+                best_model_save_path=str(layout.run_dir),
+                log_path=str(layout.run_dir),  # its evaluations.npz: layout.evaluations
+                deterministic=True,
+                verbose=config.verbose,
+                callback_on_new_best=None
+                if hp.normalize is None
+                else ConvertCallback(save_best_statistics),
             )
+            if checkpoint is not None:
+                resume_evaluations(evaluation, layout.evaluations, start_step)
+            hooks.append(evaluation)
         started = time.perf_counter()
         with checkpoints.catching():
             model.learn(
@@ -441,8 +425,11 @@ def train(config: TrainConfig) -> TrainResult:
         wall_time = time.perf_counter() - started
         if checkpoints.requested:
             saved = checkpoints.save()
-            resume = f"python -m train --algo {config.algo} --env {config.env_id} --run-dir"
-            raise Interrupted(saved, f"{resume} {layout.run_dir}")
+            raise Interrupted(
+                f"interrupted: checkpoint at step {saved.step} saved as {saved.model}; continue "
+                f"with: python -m train --algo {config.algo} --env {config.env_id} --run-dir "
+                f"{layout.run_dir}"
+            )
         # the final model (normalisation statistics, a last checkpoint) and its evaluation
         model.save(layout.final_model)
         if hp.normalize is not None:
@@ -454,8 +441,6 @@ def train(config: TrainConfig) -> TrainResult:
         seen = {k: getattr(recorder, k) for k in ("best_reward", "best_action", "best_info")}
         steps = int(model.num_timesteps)
         result = TrainResult(
-            algo=config.algo,
-            env_id=config.env_id,
             run_dir=layout.run_dir,
             num_timesteps=steps,
             wall_time=wall_time,
@@ -463,7 +448,6 @@ def train(config: TrainConfig) -> TrainResult:
             **seen,
             final_evaluation=evaluate_deterministic(model, eval_env),
             history=tuple(recorder.history),
-            hp=hp,
         )
         segment = {"resumed_from": resumed_from, "end_step": steps, "wall_time_s": wall_time}
         segments = [*run.segments, {**segment, **seen}]
@@ -473,8 +457,8 @@ def train(config: TrainConfig) -> TrainResult:
         rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
         best = segments[best_index(feasible, rewards)]
         data = {
-            "algo": result.algo,
-            "env_id": result.env_id,
+            "algo": config.algo,
+            "env_id": config.env_id,
             "num_timesteps": steps,
             "n_envs": hp.n_envs,
             "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),

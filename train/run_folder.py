@@ -66,10 +66,10 @@ def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
 
 def read_run_folder(
     run_dir: str | os.PathLike[str], allowed: str
-) -> tuple[RunLayout, Path, dict[str, Any]]:
-    """The layout of a run folder (or of the latest run it names, :func:`resolve_run_dir`), its
-    one ``<env>/args.yml`` and the settings there; ValueError naming the folder and ``allowed``
-    otherwise."""
+) -> tuple[RunLayout, dict[str, Any]]:
+    """The layout of a run folder (or of the latest run it names, :func:`resolve_run_dir`) and
+    the settings of its one ``<env>/args.yml`` (its ``args_file``); ValueError naming the folder
+    and ``allowed`` otherwise."""
     folder = resolve_run_dir(run_dir)
     found = sorted(folder.glob("*/args.yml")) if folder.is_dir() else []
     if len(found) != 1:
@@ -84,7 +84,7 @@ def read_run_folder(
             f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
             f"{found[0].parent.name}; allowed: the env the run was trained on"
         )
-    return RunLayout(folder, env_id), found[0], args
+    return RunLayout(folder, env_id), args
 
 
 def run_lock(run_dir: Path) -> FolderLock:
@@ -129,22 +129,9 @@ class RunPolicy:
 class RunComplete(Exception):
     """A resumed run has nothing left to train (``python -m train`` exits with status 0)."""
 
-    def __init__(self, run_dir: Path, step: int, target: int) -> None:
-        super().__init__(
-            f"{run_dir} is complete: its last checkpoint is at {step} env steps and the target "
-            f"is {target}; nothing was trained or changed. To train on, give a larger target "
-            f"(-n N with N > {step})"
-        )
-
 
 class Interrupted(Exception):
     """Training stopped by Ctrl-C with a checkpoint saved (``python -m train`` exits 130)."""
-
-    def __init__(self, checkpoint: Checkpoint, resume: str) -> None:
-        super().__init__(
-            f"interrupted: checkpoint at step {checkpoint.step} saved as {checkpoint.model}; "
-            f"continue with: {resume}"
-        )
 
 
 @dataclass(frozen=True)
@@ -404,7 +391,11 @@ class RunFolder:
         unit = step_granularity(hp)
         target = -(-hp.n_timesteps // unit) * unit  # where SB3's learn stops: whole iterations
         if checkpoint is not None and checkpoint.step >= target:
-            raise RunComplete(layout.run_dir, checkpoint.step, target)  # type: ignore[union-attr]
+            raise RunComplete(  # type: ignore[union-attr]
+                f"{layout.run_dir} is complete: its last checkpoint is at {checkpoint.step} env "
+                f"steps and the target is {target}; nothing was trained or changed. To train on, "
+                f"give a larger target (-n N with N > {checkpoint.step})"
+            )
         if checkpoint is None and layout is not None:
             finished = [p.name for p in (layout.final_model, layout.result_file) if p.is_file()]
             if finished:

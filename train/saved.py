@@ -73,9 +73,10 @@ class _NormalizerUnpickler(pickle.Unpickler):
         )
 
 
-def read_normalizer(path: Path) -> Any:
+def read_normalizer(path: Path, venv: VecEnv | None = None, **settings: Any) -> Any:
     """The ``VecNormalize`` statistics SB3 saved at ``path``, unpickled with only
-    :data:`_NORMALIZER_GLOBALS`; ValueError naming the file otherwise."""
+    :data:`_NORMALIZER_GLOBALS`; ValueError naming the file otherwise. Given ``venv``, they
+    wrap it, with their attributes ``settings`` (e.g. ``training=False``)."""
     try:
         with Path(path).open("rb") as stream:
             normalizer = _NormalizerUnpickler(stream).load()
@@ -88,6 +89,10 @@ def read_normalizer(path: Path) -> Any:
         raise ValueError(f"{path} cannot be read ({error.strerror})") from None
     if not isinstance(normalizer, VecNormalize):
         raise ValueError(f"{path} holds a {type(normalizer).__name__}, not VecNormalize statistics")
+    if venv is not None:
+        normalizer.set_venv(venv)
+        for name, value in settings.items():
+            setattr(normalizer, name, value)
     return normalizer
 
 

@@ -58,14 +58,14 @@ class TrainedPolicy(RunPolicy):
         the folder or file and what is wrong."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-        layout, args_file, args = read_run_folder(run_dir, RUN_FOLDER)
+        layout, args = read_run_folder(run_dir, RUN_FOLDER)
         run_dir = layout.run_dir
         env_id = layout.env_id
         try:
             algo = check_algo(str(args.get("algo")))
         except ValueError as error:
-            raise ValueError(f"{args_file}: {error}") from None
-        check_env_id(env_id, f"{args_file}: env")
+            raise ValueError(f"{layout.args_file}: {error}") from None
+        check_env_id(env_id, f"{layout.args_file}: env")
         entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
         env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
         best = which == "best" and layout.best_model.is_file()
@@ -102,11 +102,7 @@ class TrainedPolicy(RunPolicy):
             make_sb3_vec_env(self.env_id, n_envs=len(values), seed=0, **self.env_kwargs), values
         )
         if self.normalizer_path is not None:
-            normalizer = read_normalizer(self.normalizer_path)
-            normalizer.set_venv(venv)
-            normalizer.training = False
-            normalizer.norm_reward = False
-            venv = normalizer
+            venv = read_normalizer(self.normalizer_path, venv, training=False, norm_reward=False)
         try:
             observations = venv.reset()
         finally:
@@ -137,7 +133,7 @@ def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
     amortised run (one weights file: ``which`` best and final are the same)."""
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-    layout, _, args = read_run_folder(run_dir, RUN_FOLDER)
+    layout, args = read_run_folder(run_dir, RUN_FOLDER)
     if args.get("algo") == AMORTISED or layout.policy_file.is_file():
         return load_amortised(layout.run_dir)
     return TrainedPolicy.load(layout.run_dir, which)

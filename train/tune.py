@@ -295,7 +295,7 @@ def open_study(config: TuneConfig) -> Any:
     study = optuna.create_study(
         study_name=name, storage=storage, sampler=sampler, direction="maximize", load_if_exists=True
     )
-    if not study.get_trials(deepcopy=False):
+    if not trials:  # a new study (or one without trials) starts from the shipped entry
         study.enqueue_trial(dict(SHIPPED[config.algo]))
     return study
 
@@ -377,19 +377,17 @@ def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = No
 
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
-    parser, config = command(
+    with command(
         TuneConfig,
         argv,
         description=__doc__.split("\n\n")[0].split(": ", 1)[1],
         epilog="example: python -m train.tune --algo ppo --trials 12 --steps 100000 "
         "--env-kwargs 'speed_range=(0.25, 2.0)' --out results/tune-ppo",
-    )
-    try:
-        study = open_study(config)  # imports Optuna first
-    except ImportError:
-        parser.error('needs Optuna: pip install -e ".[tune]"')
-    except ValueError as error:
-        parser.error(str(error))
+    ) as config:
+        try:
+            study = open_study(config)  # imports Optuna first
+        except ImportError:
+            raise ValueError('needs Optuna: pip install -e ".[tune]"') from None
     start = time.perf_counter()
     study = tune(config, study=study)
     best = study.best_trial
