@@ -200,7 +200,9 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     @property
     def np_random_seed(self) -> tuple[int | None, ...]:  # type: ignore[override]
         """Each sub-env's seed."""
-        return tuple(self._rng_seeds[i] for i, _ in enumerate(self.np_random))
+        for i in range(self.num_envs):
+            self._rng(i)  # a sub-env never seeded gets its generator and seed now
+        return tuple(self._rng_seeds)
 
     @property
     def conditions(self) -> np.ndarray:
