@@ -37,8 +37,11 @@ MODEL_REVISION = 4
 #: the fixed point's passes Gauss-Seidel (the hind pair in the fore pair's field of the same
 #: pass), stopping after either pair's solve (moves the results within the fixed point's
 #: tolerance); 7: M = 4 read stations with a natural cubic spline onto the elements, not 6
-#: with linear interpolation (moves the results by about 1 % of the interaction).
-VORTEX_REVISION = 7
+#: with linear interpolation (moves the results by about 1 % of the interaction); 8: Γ shed at
+#: the wake grid's phases from the frames there, and the field read at the kernel's samples
+#: through a periodic cubic spline, where both were interpolated linearly between samples
+#: whose phases move with the stroke (kinks in every result, on which the polish came to rest).
+VORTEX_REVISION = 8
 from .coefficients import (
     COEFFICIENT_MODELS,
     PaperCoefficients,

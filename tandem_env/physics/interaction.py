@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import blade, cycle
+from .kinematics import angles_at, fill_angles
 from .vortex import (
     BOUND_VORTEX,
     COLLOCATION,
@@ -142,6 +143,10 @@ class Pair(NamedTuple):
     """(n_blade,) quadrature weights dr [m]."""
     root: np.ndarray
     """(3,) the right wing's root in earth axes [m]."""
+    grid_coef: Any = None
+    """(B, n_w, ``blade.N_COEF``) frame coefficients at the wake grid's phases
+    (:func:`grid_frames`), where Γ is shed; None (measured kinematics): Γ is interpolated
+    from the kernel's samples around them."""
 
     def take(self, keep: Any) -> Pair:
         """The pair on the strokes ``keep`` (a boolean mask or indices of the batch)."""
@@ -151,6 +156,7 @@ class Pair(NamedTuple):
             frequency=self.frequency[keep], beta=self.beta[keep], coef=self.coef[keep],
             phase=self.phase[keep], v_tangential=self.v_tangential[keep],
             v_normal=self.v_normal[keep],
+            grid_coef=None if self.grid_coef is None else self.grid_coef[keep],
         )  # fmt: skip
 
 
@@ -224,6 +230,101 @@ def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any
     x1 = xp.where((count % n) == 0, x1 + two_pi, x1)  # a number times a bool: float32 in torch
     t = (tgt - x0) / xp.maximum(x1 - x0, 1e-300)
     return xp.stack([count - 1, count % n], -1), xp.stack([1.0 - t, t], -1)
+
+
+@stroke_loop()
+def _fill_grid_frames(params, tau, spin_total, out):
+    """:func:`grid_frames` on numpy, compiled and parallel over strokes b: the kernel's own
+    ``kinematics.fill_angles`` and ``blade.fill_frame_coefficients`` at the phases ``tau``
+    (n,) of each stroke's ``params`` (B, 14); writes ``out`` (B, n, N_COEF)."""
+    for b in prange(params.shape[0]):
+        angles = np.empty((tau.shape[0], 9))
+        fill_angles(params[b], tau, angles)
+        weight = np.ones(tau.shape[0])
+        blade.fill_frame_coefficients(angles, weight, params[b, 13], spin_total, 1, out[b])
+
+
+def grid_frames(params: Any, spin_total: bool, wake: VortexWake, xp: ArrayNamespace) -> Any:
+    """The right wing's frame coefficients (B, n_w, ``blade.N_COEF``) at the wake grid's
+    uniform phases 2πi/n_w, of its (B, 14) parameters in Hz/rad/- (``blade.frame_columns`` of
+    ``kinematics.angles_at``; the weight column 1): Γ is shed where the wake's rows are
+    released, computed there rather than interpolated from the kernel's samples, whose phases
+    move with the stroke (docs/model.md §5.8 item 1)."""
+    tau = 2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake
+    if xp is NUMPY:
+        out = np.empty((len(params), wake.n_wake, blade.N_COEF))
+        _fill_grid_frames(len(params), np.ascontiguousarray(params), tau, spin_total, out)
+        return out
+    angles = xp.stack(angles_at(params, xp.constant_like(tau[None], params), xp), -1)
+    beta = params[:, 13:14]
+    zero = 0.0 * angles[..., 0]
+    columns = on_namespace(blade.frame_columns, xp)(
+        angles, ..., zero + 1.0, xp.cos(beta), xp.sin(beta), spin_total, 1
+    )
+    return xp.stack([column + zero for column in columns], -1)
+
+
+@cache
+def spline_prefilter(n: int) -> np.ndarray:
+    """The (n, n) matrix from values on a uniform periodic grid of n points to the
+    coefficients of the periodic cubic B-spline through them (the inverse of the circulant
+    (1/6, 2/3, 1/6)) [-]."""
+    circulant = np.zeros((n, n))
+    for i in range(n):
+        circulant[i, i] += 2.0 / 3.0
+        circulant[i, (i - 1) % n] += 1.0 / 6.0
+        circulant[i, (i + 1) % n] += 1.0 / 6.0
+    return np.linalg.inv(circulant)
+
+
+@njit(cache=True)
+def spline_basis(u):
+    """The cubic B-spline's four weights at the fraction ``u`` in [0, 1) of a grid interval,
+    for the grid points before it, at its start, at its end and after it [-]."""
+    v = 1.0 - u
+    u2 = u * u
+    return (
+        v * v * v / 6.0,
+        (3.0 * u2 * u - 6.0 * u2 + 4.0) / 6.0,
+        (-3.0 * u2 * u + 3.0 * u2 + 3.0 * u + 1.0) / 6.0,
+        u2 * u / 6.0,
+    )
+
+
+@njit(cache=True)
+def _fill_spline(target, n, index, weight):
+    """:func:`periodic_spline` on numpy, compiled: ``target`` (B, n_t); writes ``index``,
+    ``weight`` (B, n_t, 4)."""
+    for b in range(target.shape[0]):
+        for t in range(target.shape[1]):
+            x = target[b, t] * (n / (2.0 * math.pi))
+            x = x - n * np.floor(x / n)
+            base = np.floor(x)
+            taps = spline_basis(x - base)
+            for q in range(4):
+                index[b, t, q] = (int(base) + q - 1) % n
+                weight[b, t, q] = taps[q]
+
+
+def periodic_spline(target: Any, n: int, xp: ArrayNamespace) -> tuple[Any, Any]:
+    """The periodic cubic B-spline's four taps from a uniform grid of ``n`` points over one
+    period (phases 2πi/n) to the phases ``target`` (B, n_t) [rad]: (B, n_t, 4) grid indices
+    and weights [-] (:func:`spline_basis`). Applied to :func:`spline_prefilter`'s
+    coefficients it interpolates the grid's values, twice continuously differentiable in the
+    target phase: the kernel's sample phases move with the stroke, and linear interpolation
+    would put a kink in every result wherever a sample crosses a grid point, on which an
+    optimiser comes to rest."""
+    if xp is NUMPY:
+        index = np.empty((*target.shape, 4), dtype=np.int64)
+        weight = np.empty((*target.shape, 4))
+        _fill_spline(np.ascontiguousarray(target, dtype=float), n, index, weight)
+        return index, weight
+    x = target * (n / (2.0 * math.pi))
+    x = x - n * xp.floor(x / n)
+    base = xp.floor(x)
+    start = xp.as_int64(base)
+    index = xp.stack([(start + shift) % n for shift in (-1, 0, 1, 2)], -1)
+    return index, xp.stack(on_namespace(spline_basis, xp)(x - base), -1)
 
 
 def read_stations(wake: VortexWake) -> np.ndarray:
@@ -427,12 +528,14 @@ def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
 
 def strip_circulation(to_strips: Any, weights: Any, gamma: Any, wake: VortexWake, xp) -> Any:
     """The shed strip circulations (B, n_w, N_s) [m²/s] on the wake grid of the elements'
-    ``gamma`` (B, n_blade, 2·n_w) [m²/s] at ``Lattice.samples`` (item 1), interpolated with
-    ``Lattice.sample_weights`` (B, n_w, 2) and reduced to the strips by ``Lattice.to_strips``,
-    times ``wake.gamma_scale``."""
-    pairs = gamma.reshape(*gamma.shape[:2], -1, 2) * weights[:, None]
-    # the two samples' sum written out: a reduction over an axis of 2 costs numpy more
-    on_grid = pairs[..., 0] + pairs[..., 1]
+    ``gamma`` (B, n_blade, n_w) [m²/s] there or, with ``weights``, (B, n_blade, 2·n_w) at
+    ``Lattice.samples`` (item 1), interpolated with ``Lattice.sample_weights`` (B, n_w, 2),
+    reduced to the strips by ``Lattice.to_strips``, times ``wake.gamma_scale``."""
+    on_grid = gamma
+    if weights is not None:
+        pairs = gamma.reshape(*gamma.shape[:2], -1, 2) * weights[:, None]
+        # the two samples' sum written out: a reduction over an axis of 2 costs numpy more
+        on_grid = pairs[..., 0] + pairs[..., 1]
     return wake.gamma_scale * xp.einsum("sj,bjw->bws", to_strips, on_grid)
 
 
@@ -547,106 +650,137 @@ def field_on_grid(matrix: Any, strips: Any, xp, rows: Any = None) -> Any:
     return (matrix @ flat).reshape(n_b, n_w, -1, 3)
 
 
-@stroke_loop(error_model=BRANCH_FREE)
-def _fill_element_field(flat, index, weight, coef, beta, out, mean):
-    """:func:`element_field` on numpy, compiled and parallel over strokes b: ``flat`` (B, n_w,
-    M·3) the scaled field on the wake grid, ``index``, ``weight`` (B, n_time, 2) its brackets,
-    ``coef`` (B, n_time, N_COEF), ``beta`` (B,); writes the offsets at the M stations into
-    ``out`` (B, 2, M, n_time) and the mean into ``mean`` (B, M)."""
-    n_t, n_m = index.shape[1], mean.shape[1]
+@njit(cache=True, error_model=BRANCH_FREE)
+def _project(coef, w, cb, sb, mean, out):
+    """The (u, v) offsets −w·e_c, −(w − mean·z_s)·e_n at the M stations of one stroke's field
+    ``w`` (n, M·3) in earth axes at its samples' frame coefficients ``coef`` (n, N_COEF)
+    (cos β ``cb``, sin β ``sb`` fold β into e_c, e_n; ``mean`` (M,)), into ``out`` (2, M,
+    n)."""
     c_x = (blade.C_ECX, blade.C_ENX)
     c_y = (blade.C_ECY, blade.C_ENY)
     c_z = (blade.C_ECZ, blade.C_ENZ)
+    for t in range(coef.shape[0]):
+        for k in range(2):
+            ex = cb * coef[t, c_x[k]] + sb * coef[t, c_z[k]]
+            ey = coef[t, c_y[k]]
+            ez = cb * coef[t, c_z[k]] - sb * coef[t, c_x[k]]
+            for m in range(mean.shape[0]):
+                out[k, m, t] = coef[t, c_z[k]] * mean[m] - (
+                    ex * w[t, 3 * m] + ey * w[t, 3 * m + 1] + ez * w[t, 3 * m + 2]
+                )
+
+
+@stroke_loop(error_model=BRANCH_FREE)
+def _fill_element_field(flat, prefilter, taps, coef, beta, grid_coef, out, mean, grid_out):
+    """:func:`element_field` on numpy, compiled and parallel over strokes b: ``flat`` (B, n_w,
+    M·3) the scaled field on the wake grid, ``prefilter`` (n_w, n_w) its spline's
+    (:func:`spline_prefilter`), ``taps`` its (B, n_time, 4) indices and weights
+    (:func:`periodic_spline`), ``coef`` (B, n_time, N_COEF), ``beta`` (B,), ``grid_coef`` (B,
+    n_g, N_COEF) the frames at the wake grid (n_g = n_w, or 0); writes the offsets at the M
+    stations into ``out`` (B, 2, M, n_time), the mean into ``mean`` (B, M) and the offsets at
+    the wake grid into ``grid_out`` (B, 2, M, n_g)."""
+    index, weight = taps
+    n_w, n_c, n_t = flat.shape[1], flat.shape[2], index.shape[1]
     for b in prange(flat.shape[0]):
         cb, sb = np.cos(beta[b]), np.sin(beta[b])
-        w = np.empty((n_t, flat.shape[2]))
+        spline = np.zeros((n_w, n_c))
+        for i in range(n_w):
+            for j in range(n_w):
+                for c in range(n_c):
+                    spline[i, c] += prefilter[i, j] * flat[b, j, c]
+        w = np.zeros((n_t, n_c))
         for t in range(n_t):
-            i0, i1 = index[b, t, 0], index[b, t, 1]
-            w0, w1 = weight[b, t, 0], weight[b, t, 1]
-            for c in range(flat.shape[2]):
-                w[t, c] = flat[b, i0, c] * w0 + flat[b, i1, c] * w1
-        for m in range(n_m):
+            for q in range(index.shape[2]):
+                at, share = index[b, t, q], weight[b, t, q]
+                for c in range(n_c):
+                    w[t, c] += spline[at, c] * share
+        for m in range(mean.shape[1]):
             total = 0.0
             for t in range(n_t):
                 total += (w[t, 3 * m] * sb + w[t, 3 * m + 2] * cb) * coef[b, t, blade.C_WEIGHT]
             mean[b, m] = total / n_t
-        d = out[b]
-        for t in range(n_t):
-            for k in range(2):
-                ex = cb * coef[b, t, c_x[k]] + sb * coef[b, t, c_z[k]]
-                ey = coef[b, t, c_y[k]]
-                ez = cb * coef[b, t, c_z[k]] - sb * coef[b, t, c_x[k]]
-                for m in range(n_m):
-                    d[k, m, t] = coef[b, t, c_z[k]] * mean[b, m] - (
-                        ex * w[t, 3 * m] + ey * w[t, 3 * m + 1] + ez * w[t, 3 * m + 2]
-                    )
+        _project(coef[b], w, cb, sb, mean[b], out[b])
+        _project(grid_coef[b], flat[b], cb, sb, mean[b], grid_out[b])
 
 
 def element_field(
-    w: Any, target: Pair, to_grid: tuple[Any, Any], to_elements: Any, scale: Any, xp
-) -> tuple[Any, Any]:
+    w: Any, target: Pair, taps: tuple[Any, Any], to_elements: Any, scale: Any, xp
+) -> tuple[tuple[Any, Any], Any]:
     """The field ``w`` (B, n_w, M, 3) [m/s] on the target's elements and samples, as the
     kernel takes it: its (u, v) offsets −w·e_c, −w·e_n less the cycle-mean normal part, (B,
     n_blade, 2, n_time) on torch, and on numpy (B, 2, M, n_time) at the M stations, which the
     kernel interpolates onto each stroke's elements (``to_elements``; ``cycle.station_offsets``)
     rather than holding every element's in memory; and that mean along −z_s, (B, n_blade), the
     upstream inflow of the momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,)
-    (C_hf, 0 where off).
-    ``to_grid``: :func:`periodic_brackets` from the wake grid to the kernel's samples, (B,
-    n_time, 2) indices and weights. The interpolation, the projections and the mean are linear
-    and the same along the span, so they are taken at the M stations, the projections on
-    e_c and e_n in earth axes (β folded into them), and interpolated onto the elements last."""
+    (C_hf, 0 where off). Also the offsets at the wake grid's phases (the same layouts with
+    n_w for n_time), at the target's ``grid_coef`` (None where it has none), where its Γ is
+    shed.
+    ``taps``: :func:`periodic_spline` from the wake grid to the kernel's samples, (B, n_time,
+    4) indices and weights. The interpolation, the projections and the mean are linear and
+    the same along the span, so they are taken at the M stations, the projections on e_c and
+    e_n in earth axes (β folded into them), and interpolated onto the elements last."""
     n_b, n_w = w.shape[:2]
     flat = w.reshape(n_b, n_w, -1) * scale[:, None, None]  # (B, n_w, M·3)
-    index, weight = to_grid
+    prefilter = spline_prefilter(n_w)
+    n_m = to_elements.shape[1]
     if xp is NUMPY:
         coef = np.ascontiguousarray(target.coef[:, 0])
-        out = np.empty((n_b, 2, to_elements.shape[1], coef.shape[1]))
-        mean = np.empty((n_b, to_elements.shape[1]))
+        grid = target.grid_coef
+        grid = np.empty((n_b, 0, coef.shape[2])) if grid is None else np.ascontiguousarray(grid)
+        out = np.empty((n_b, 2, n_m, coef.shape[1]))
+        grid_out = np.empty((n_b, 2, n_m, grid.shape[1]))
+        mean = np.empty((n_b, n_m))
         _fill_element_field(
-            n_b,
-            np.ascontiguousarray(flat), np.ascontiguousarray(index), np.ascontiguousarray(weight),
-            coef, np.ascontiguousarray(target.beta), out, mean,
+            n_b, np.ascontiguousarray(flat), prefilter,
+            tuple(np.ascontiguousarray(a) for a in taps), coef,
+            np.ascontiguousarray(target.beta), grid, out, mean, grid_out,
         )  # fmt: skip
         # a stroke's sum in one order whatever the batch (a BLAS product's order depends on
         # the number of rows), so that a stroke's result does not depend on its batch
-        return out, -np.einsum("bm,em->be", mean, to_elements)
+        upstream = -np.einsum("bm,em->be", mean, to_elements)
+        return (out, upstream), None if target.grid_coef is None else grid_out
     stroke = xp.as_int64(xp.arange_like(n_b, flat))[:, None]
-    w = (
-        flat[stroke, index[..., 0]] * weight[..., :1]
-        + flat[stroke, index[..., 1]] * weight[..., 1:]
-    )
-    w = w.reshape(*w.shape[:2], -1, 3)  # (B, n_time, M, 3)
+    spline = xp.einsum("ij,bjc->bic", xp.constant_like(prefilter, flat), flat)
+    index, weight = taps
+    w = sum(spline[stroke, index[..., q]] * weight[..., q : q + 1] for q in range(4))
     beta = target.beta[:, None]
     cb, sb = xp.cos(beta), xp.sin(beta)
     coef = target.coef[:, 0]  # (B, n_time, N_COEF)
-    # w in stroke-plane axes is (w_x·cos β − w_z·sin β, w_y, w_x·sin β + w_z·cos β)
-    project = xp.stack(
-        [
-            xp.stack(
-                [
-                    cb * coef[..., x] + sb * coef[..., z],
-                    coef[..., y],
-                    cb * coef[..., z] - sb * coef[..., x],
-                ],
-                -1,
-            )
-            for x, y, z in (
-                (blade.C_ECX, blade.C_ECY, blade.C_ECZ),
-                (blade.C_ENX, blade.C_ENY, blade.C_ENZ),
-            )
-        ],
-        -2,
-    )  # fmt: skip  (B, n_time, 2, 3): e_c, e_n in earth axes
+    w = w.reshape(*w.shape[:2], -1, 3)  # (B, n_time, M, 3)
     wz = w[..., 0] * sb[..., None] + w[..., 2] * cb[..., None]  # (B, n_time, M)
     mean = (wz * coef[:, :, blade.C_WEIGHT, None]).sum(1) / coef.shape[1]  # (B, M)
-    normal = xp.stack([coef[..., blade.C_ECZ], coef[..., blade.C_ENZ]], -1)  # (B, n_time, 2)
-    # −(w − mean·z_s)·e: (B, n_time, 2, M)
-    d = normal[..., None] * mean[:, None, None, :] - project @ xp.moveaxis(w, -1, -2)
-    offsets = d.reshape(n_b, -1, d.shape[-1]) @ to_elements.T  # (B, n_time·2, n_blade)
-    offsets = offsets.reshape(*d.shape[:3], -1)
-    # (B, n_blade, 2, n_time), in the kernel's layout
-    return xp.moveaxis(xp.moveaxis(offsets, -1, 1), -1, -2), -(mean @ to_elements.T)
+
+    def offsets(coef: Any, w: Any) -> Any:
+        """(B, n_blade, 2, n) in the kernel's layout, of ``w`` (B, n, M, 3) at ``coef``."""
+        # w in stroke-plane axes is (w_x·cos β − w_z·sin β, w_y, w_x·sin β + w_z·cos β)
+        project = xp.stack(
+            [
+                xp.stack(
+                    [
+                        cb * coef[..., x] + sb * coef[..., z],
+                        coef[..., y],
+                        cb * coef[..., z] - sb * coef[..., x],
+                    ],
+                    -1,
+                )
+                for x, y, z in (
+                    (blade.C_ECX, blade.C_ECY, blade.C_ECZ),
+                    (blade.C_ENX, blade.C_ENY, blade.C_ENZ),
+                )
+            ],
+            -2,
+        )  # fmt: skip  (B, n, 2, 3): e_c, e_n in earth axes
+        normal = xp.stack([coef[..., blade.C_ECZ], coef[..., blade.C_ENZ]], -1)  # (B, n, 2)
+        # −(w − mean·z_s)·e: (B, n, 2, M)
+        d = normal[..., None] * mean[:, None, None, :] - project @ xp.moveaxis(w, -1, -2)
+        on_elements = d.reshape(n_b, -1, d.shape[-1]) @ to_elements.T  # (B, n·2, n_blade)
+        on_elements = on_elements.reshape(*d.shape[:3], -1)
+        return xp.moveaxis(xp.moveaxis(on_elements, -1, 1), -1, -2)
+
+    at_grid = None
+    if target.grid_coef is not None:
+        at_grid = offsets(target.grid_coef, flat.reshape(n_b, n_w, -1, 3))
+    return (offsets(coef, w), -(mean @ to_elements.T)), at_grid
 
 
 #: A backend's solve of one pair: ``run(w, field, rows)`` solves pair ``w`` (0 fore, 1 hind) on
@@ -694,8 +828,7 @@ def vortex_reading(
         for p, v, b in zip(pairs, inflow, beats, strict=True)
     ]
     to_elements = [xp.constant_like(station_weights(p, wake), p.phase) for p in pairs]
-    uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
-    to_grid = [periodic_brackets(uniform[None], p.phase, xp) for p in pairs]
+    to_grid = [periodic_spline(p.phase, wake.n_wake, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
     samples = [(lat.samples, lat.sample_weights) for lat in lattices]
     # the strips read two elements each: on numpy only theirs are computed
@@ -703,19 +836,28 @@ def vortex_reading(
     rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
     converged = xp.zeros_bool(rows)
 
-    def strips_of(w: int, inflow: Any, field: Any) -> Any:
+    def strips_of(w: int, inflow: Any, field: Any, at_grid: Any) -> Any:
         """Pair w's strip circulations (n, n_w, N_s) [m²/s] at its solved ``inflow`` in the
-        other pair's ``field`` (None: isolated)."""
-        gamma = circulation(pairs[w], inflow, field, samples[w][0], xp, to_elements[w], read[w])
-        return strip_circulation(lattices[w].to_strips, samples[w][1], gamma, wake, xp)
+        other pair's ``field`` (None: isolated), whose offsets at the wake grid are
+        ``at_grid``: Γ at the wake grid's phases where the pair has their frames, else at
+        the kernel's samples around them, interpolated."""
+        pair = pairs[w]
+        if pair.grid_coef is None:
+            gamma = circulation(pair, inflow, field, samples[w][0], xp, to_elements[w], read[w])
+            return strip_circulation(lattices[w].to_strips, samples[w][1], gamma, wake, xp)
+        grid = xp.as_int64(xp.arange_like(wake.n_wake, inflow))[None] + 0 * rows[:, None]
+        on_grid = pair._replace(coef=pair.grid_coef[:, None])
+        field = None if field is None else (at_grid, field[1])
+        gamma = circulation(on_grid, inflow, field, grid, xp, to_elements[w], read[w])
+        return strip_circulation(lattices[w].to_strips, None, gamma, wake, xp)
 
     def solve(w: int, strips: Any) -> tuple[Any, Any]:
         """Pair w solved in the other pair's field of its ``strips`` (n, n_w, N_s): its own
         strips and the backend's result."""
         on_grid = field_on_grid(matrices[w], strips, xp, rows)
-        field = element_field(on_grid, pairs[w], to_grid[w], to_elements[w], scale, xp)
+        field, at_grid = element_field(on_grid, pairs[w], to_grid[w], to_elements[w], scale, xp)
         inflow, result = run(w, field, rows)
-        return strips_of(w, inflow, field), result
+        return strips_of(w, inflow, field, at_grid), result
 
     def rms(strips: Any) -> Any:
         return xp.sqrt((strips * strips).mean((1, 2)))
@@ -744,7 +886,7 @@ def vortex_reading(
 
     # x_1: the isolated hind pair's strips; each pair's latest solve's strips, and the fore
     # strips the hind pair was last given
-    given = hind_strips = strips_of(1, inflow[1], None)
+    given = hind_strips = strips_of(1, inflow[1], None, None)
     fore_strips = fore_given = None
     history: list[tuple[Any, Any]] = []  # the last passes' (strips g, residual r), oldest first
     for passes in range(1, wake.max_passes + 1):
@@ -846,6 +988,9 @@ def kernel_reading(
                 r=np.array(batch.nodes[:, cycle.N_R]),
                 width=np.array(batch.nodes[:, cycle.N_WIDTH]),
                 root=root,
+                grid_coef=None
+                if params is None
+                else grid_frames(params[w], spin_total, WAKE, NUMPY),
             )
         )
 

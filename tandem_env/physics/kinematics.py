@@ -176,12 +176,19 @@ def batched_angle_history(
     namespace ``xp``: :func:`fill_angle_history`'s formulas (:func:`weaving`, :func:`flapping`,
     :func:`pitching`, :func:`phase_grid`) on whole arrays, differentiable on torch."""
     tau, weight = motion_grid(params, n_time, xp)
+    return angles_at(params, tau, xp), weight, tau
+
+
+def angles_at(params: Any, tau: Any, xp: ArrayNamespace = NUMPY) -> list[Any]:
+    """φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ [rad, rad/s, rad/s²] of a batch of one wing's (B, 14)
+    parameters in Hz/rad/- at the phases ``tau`` (B, n) or (1, n) [rad], each (B, n):
+    :func:`fill_angles`'s formulas on whole arrays, differentiable on torch."""
     col = [params[:, i : i + 1] for i in range(params.shape[1])]
     omega = 2.0 * math.pi * col[0]
     phi = on_namespace(weaving, xp)(tau, omega, col[1], col[4], col[7], col[10])
     theta = on_namespace(flapping, xp)(tau, omega, col[2], col[5], col[8], col[11])
     eta = on_namespace(pitching, xp)(tau, omega, col[3], col[6], col[9], col[12])
-    return [*phi, *theta, *eta], weight, tau
+    return [*phi, *theta, *eta]
 
 
 #: Per parameter of one wing: π/180 for an angle in degrees (``stroke.ANGULAR``), else 1.

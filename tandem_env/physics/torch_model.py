@@ -748,6 +748,9 @@ def _vortex_chunk(strokes, speed, gamma, available_power, insect, options, compi
                 r=np.array(nodes[:, cycle.N_R]),
                 width=np.array(nodes[:, cycle.N_WIDTH]),
                 root=root,
+                grid_coef=interaction.grid_frames(
+                    params, options.spin == "total", interaction.WAKE, TORCH
+                ),
             )
         )
         wings.append((wing, params, vt, vn, inflow_switched_off(vn, options, TORCH)))
