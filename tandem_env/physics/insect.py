@@ -333,7 +333,7 @@ class Dragonfly:
     """Distance from the fore-wing root to the hind-wing root along the body axis [m], + hind
     aft: 1.5 fore-wing mean chords, as in the dragonfly models of Sun & Lan (2004) and Wang &
     Sun (2005) (docs/model.md §1.7). Used by ``ModelOptions.slipstream="convected"`` (the
-    wake's travel time) and :func:`~tandem_env.physics.geometry.wing_clearance`."""
+    wake's travel time) and :func:`~tandem_env.physics.clearance.wing_clearance`."""
     root_drop: float = 9.0e-3
     """How far the hind-wing root sits below the fore-wing root, normal to the body axis [m]:
     enough to keep the model's flat stroke planes apart (docs/model.md §1.7)."""
