@@ -469,8 +469,6 @@ class Lattice(NamedTuple):
     edge: Any  # (B, n_w, N_s + 1, 3) [m]
     carried: Any  # (B, K + 1, 3) [m]
     core: Any  # (B, 1, S) per segment of a wing [m]
-    samples: Any  # (B, 2·n_w) the kernel's samples around each of the wake grid's, and
-    sample_weights: Any  # (B, n_w, 2) their weights (periodic_brackets)
     to_strips: Any  # (N_s, n_blade) elements → strip mid-points
 
 
@@ -511,9 +509,7 @@ def lattice(
     core = xp.sqrt(wake.core**2 + wake.core_growth * dt[:, None] * ages[None])[:, None]
     mids = 0.5 * (frac[1:] + frac[:-1])
     to_strips = xp.constant_like(span_interpolation(pair.r / pair.wing.length, mids), like)
-    uniform = xp.constant_like(2.0 * np.pi * np.arange(n_w) / n_w, like)[None]
-    samples, weights = periodic_brackets(pair.phase, uniform, xp)
-    return Lattice(bound, edge, carried, core, samples.reshape(-1, 2 * n_w), weights, to_strips)
+    return Lattice(bound, edge, carried, core, to_strips)
 
 
 def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
@@ -528,9 +524,10 @@ def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
 
 def strip_circulation(to_strips: Any, weights: Any, gamma: Any, wake: VortexWake, xp) -> Any:
     """The shed strip circulations (B, n_w, N_s) [m²/s] on the wake grid of the elements'
-    ``gamma`` (B, n_blade, n_w) [m²/s] there or, with ``weights``, (B, n_blade, 2·n_w) at
-    ``Lattice.samples`` (item 1), interpolated with ``Lattice.sample_weights`` (B, n_w, 2),
-    reduced to the strips by ``Lattice.to_strips``, times ``wake.gamma_scale``."""
+    ``gamma`` (B, n_blade, n_w) [m²/s] there or, with ``weights``, (B, n_blade, 2·n_w) at the
+    kernel's two samples around each wake-grid instant (item 1), interpolated with their
+    ``weights`` (B, n_w, 2) (:func:`periodic_brackets`), reduced to the strips by
+    ``Lattice.to_strips``, times ``wake.gamma_scale``."""
     on_grid = gamma
     if weights is not None:
         pairs = gamma.reshape(*gamma.shape[:2], -1, 2) * weights[:, None]
@@ -830,7 +827,13 @@ def vortex_reading(
     to_elements = [xp.constant_like(station_weights(p, wake), p.phase) for p in pairs]
     to_grid = [periodic_spline(p.phase, wake.n_wake, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
-    samples = [(lat.samples, lat.sample_weights) for lat in lattices]
+    uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
+    # where a pair has no frames at the wake grid (measured kinematics): the kernel's samples
+    # around each grid instant, whose Γ is interpolated there
+    samples = [
+        None if p.grid_coef is not None else periodic_brackets(p.phase, uniform[None], xp)
+        for p in pairs
+    ]
     # the strips read two elements each: on numpy only theirs are computed
     read = [(lat.to_strips != 0.0).any(0) if xp is NUMPY else None for lat in lattices]
     rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
@@ -843,8 +846,10 @@ def vortex_reading(
         the kernel's samples around them, interpolated."""
         pair = pairs[w]
         if pair.grid_coef is None:
-            gamma = circulation(pair, inflow, field, samples[w][0], xp, to_elements[w], read[w])
-            return strip_circulation(lattices[w].to_strips, samples[w][1], gamma, wake, xp)
+            index, weights = samples[w]
+            around = index.reshape(len(index), -1)
+            gamma = circulation(pair, inflow, field, around, xp, to_elements[w], read[w])
+            return strip_circulation(lattices[w].to_strips, weights, gamma, wake, xp)
         grid = xp.as_int64(xp.arange_like(wake.n_wake, inflow))[None] + 0 * rows[:, None]
         on_grid = pair._replace(coef=pair.grid_coef[:, None])
         field = None if field is None else (at_grid, field[1])
@@ -879,7 +884,7 @@ def vortex_reading(
                 fore_given[keep],
             )
             pairs = tuple(p.take(keep) for p in pairs)
-            samples = [(i[keep], s[keep]) for i, s in samples]
+            samples = [None if s is None else (s[0][keep], s[1][keep]) for s in samples]
             to_grid = [(i[keep], g[keep]) for i, g in to_grid]
             history = [(g[keep], r[keep]) for g, r in history]
         return False

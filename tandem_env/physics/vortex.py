@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
-from .kinematics import flapping, pitching, weaving
+from .kinematics import angles_at
 from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, stroke_loop
 
 #: Distance of each wing root from the body's mid-plane [m]: half the thorax's 4 mm width
@@ -258,12 +258,8 @@ def stroke_angles(params: Any, tau: Any, xp: ArrayNamespace = NUMPY) -> tuple[An
     """φ, θ, η [rad] (Eqs. 3-5) of a wing's parameters ``params`` (B, 14) in Hz/rad/-
     (``kinematics.wing_params_radians``) at phases ``tau`` (B, n) or (1, n) 2πft [rad]: each
     (B, n), as :func:`wing_lines` takes them."""
-    col = [params[:, i : i + 1] for i in range(13)]
-    omega = 2.0 * math.pi * col[0]
-    phi = on_namespace(weaving, xp)(tau, omega, col[1], col[4], col[7], col[10])[0]
-    theta = on_namespace(flapping, xp)(tau, omega, col[2], col[5], col[8], col[11])[0]
-    eta = on_namespace(pitching, xp)(tau, omega, col[3], col[6], col[9], col[12])[0]
-    return phi, theta, eta
+    angles = angles_at(params, tau, xp)
+    return angles[0], angles[3], angles[6]
 
 
 def wing_lines(
