@@ -24,7 +24,7 @@ from typing import Any
 
 import numba
 import numpy as np
-from shared import PAPER, call_times, machine, parser_with_json, write_numbers
+from shared import PAPER, best_time, call_times, machine, parser_with_json, write_numbers
 
 import tandem_env as te
 from tandem_env.physics import model
@@ -68,7 +68,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     for induction, batch in product(args.induction, args.batches or (1, 64, 1024)):
         opts = replace(PAPER, induction=induction)
         call = partial(te.evaluate, strokes[:batch], speeds[:batch], options=opts)
-        seconds = min(call_times(call, args.repeats)[0])
+        seconds = best_time(call, args.repeats)
         sweeps = float(call().induction_evaluations.mean())
         rate, ms = batch / seconds, 1e3 * seconds
         print(f"{batch:>6} {induction:>10} {rate:>10.0f} {ms:>9.2f} {sweeps:>15.1f}")
@@ -140,12 +140,12 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     print(header + (f" {'numba evals/s':>14} {'torch/numba':>12}" if on_cpu else ""))
     for induction, batch in product(args.induction, batches):
         opts = replace(PAPER, induction=induction)
-        seconds = min(call_times(partial(run_torch, batch, opts), args.repeats)[0])
+        seconds = best_time(partial(run_torch, batch, opts), args.repeats)
         line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
         row = {"batch": batch, "induction": induction, "evaluations_per_s": batch / seconds}
         if on_cpu:
             evaluate = partial(te.evaluate, strokes[:batch], speeds[:batch], options=opts)
-            numba_s = min(call_times(evaluate, args.repeats)[0])
+            numba_s = best_time(evaluate, args.repeats)
             line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
             row |= {
                 "numba_evaluations_per_s": batch / numba_s,
@@ -196,7 +196,7 @@ def gradient_cost(args, torch_model, x_all, strokes, speeds) -> dict[str, Any]:
     probes[1::2, columns] += np.diag(step)
     probes[2::2, columns] -= np.diag(step)
     central_difference = partial(te.evaluate, probes, speeds[0], options=PAPER)
-    central = min(call_times(central_difference, args.repeats)[0])
+    central = best_time(central_difference, args.repeats)
     print(
         f"\ngradient of power with respect to the 28 parameters, per stroke: central difference "
         f"of numba ({probes.shape[0]} strokes in one call) {1e3 * central:.1f} ms"
@@ -204,7 +204,7 @@ def gradient_cost(args, torch_model, x_all, strokes, speeds) -> dict[str, Any]:
     numbers: dict[str, Any] = {"central_difference_ms": 1e3 * central, "probes": probes.shape[0]}
     for batch in (1, 64):
         gradient = partial(torch_model.value_and_grad, x_all[:batch], "power", speeds[0])
-        seconds = min(call_times(partial(gradient, compiled=args.compile), args.repeats)[0])
+        seconds = best_time(partial(gradient, compiled=args.compile), args.repeats)
         print(
             f"  autograd at batch {batch:>3}: {1e3 * seconds / batch:8.1f} ms per stroke "
             f"({central * batch / seconds:.2f}x the central difference's rate)"

@@ -39,6 +39,11 @@ def call_times(call: Callable[[], Any], repeats: int) -> tuple[list[float], list
     return list(wall), list(cpu)
 
 
+def best_time(call: Callable[[], Any], repeats: int) -> float:
+    """The fastest wall-clock seconds of ``repeats`` calls after a warm-up."""
+    return min(call_times(call, repeats)[0])
+
+
 def machine() -> str:
     """The processor, its cores, numba's threads and the load, as the scripts print them."""
     import numba

@@ -166,13 +166,13 @@ def optima_records(
     cache_dir: str | os.PathLike[str] | None = None,
     scheduler: str | None = None,
     progress: bool = True,
-    record_cache: bool = True,
+    cache: bool = True,
     rerun: bool = False,
 ) -> list[Record]:
     """The records of the level-flight optima at ``speeds`` [m/s] for the env's insect and
     model options, in that order (one infeasible is said on stderr): a harness job each on the
     ``level`` task, run by :func:`agents.runner.run_jobs` into the record store ``cache_dir`` (a
-    temporary one if None; ``record_cache``: ``--no-cache``, ``rerun``: ``--rerun``)."""
+    temporary one if None; ``cache``: ``--no-cache``, ``rerun``: ``--rerun``)."""
     import tempfile
 
     from agents.jobs import Job
@@ -183,7 +183,7 @@ def optima_records(
     with tempfile.TemporaryDirectory() as scratch:
         where = scratch if cache_dir is None else cache_dir
         summary = run_jobs(
-            jobs, where, scheduler=scheduler, progress=progress, cache=record_cache, rerun=rerun
+            jobs, where, scheduler=scheduler, progress=progress, cache=cache, rerun=rerun
         )
     records = [summary.records[job.key] for job in jobs]  # every job's: else run_jobs raises
     for speed, record in zip(speeds, records, strict=True):
@@ -482,9 +482,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         policies += [SB3Policy.load(run_dir, name, args.model) for run_dir, name in trained]
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
-    # the runner's options as optima_records names them (--no-cache: record_cache)
     run = dict(run_options(args), speeds=args.grid, budget=args.optima_budget)
-    run.update(method=args.optimiser, cache_dir=args.out / "optima", record_cache=run.pop("cache"))
+    run.update(method=args.optimiser, cache_dir=args.out / "optima")
     steady = run_reporting(parser, lambda: steady_optima(config, **run))  # type: ignore[arg-type]
     if isinstance(steady, int):
         return steady

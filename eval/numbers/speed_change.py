@@ -23,7 +23,7 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
     computed now (the record cache off: a cached optimum may come from another BLAS kernel)."""
     grid = speed_change.STEADY_GRID if speeds is None else speeds
     records = speed_change.optima_records(
-        SpeedChangeConfig.from_kwargs(), speeds=grid, progress=False, record_cache=False
+        SpeedChangeConfig.from_kwargs(), speeds=grid, progress=False, cache=False
     )
     return [
         {

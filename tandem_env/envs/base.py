@@ -160,7 +160,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             self.autoreset_mode = AutoresetMode(autoreset_mode)
         except ValueError as error:
             allowed = ", ".join(repr(m.value) for m in AutoresetMode)
-            raise ValueError(f"autoreset_mode = {autoreset_mode!r}; allowed: {allowed}") from error
+            raise refusal("autoreset_mode", autoreset_mode, allowed) from error
         self.num_envs = int(num_envs)
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
@@ -384,7 +384,9 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             truncations[stepping] = batch.truncated
             columns, ended = batch.info_columns(), batch.terminated | batch.truncated
             ended &= self.autoreset_mode == AutoresetMode.SAME_STEP
-            if not ended.all():
+            if not ended.any():  # the usual step: every column as it is, without a copy
+                add_columns(infos, columns, stepping, n)
+            elif not ended.all():
                 add_columns(infos, take_columns(columns, ~ended), stepping[~ended], n)
             if ended.any():  # same-step: the final observations and infos, then the resets
                 done, mask = stepping[ended], np.isin(np.arange(n), stepping[ended])

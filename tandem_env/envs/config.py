@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -53,11 +53,12 @@ def _overridden(
     with the fields that flat ``keywords`` (keyword -> field) of ``kwargs`` set over it, all
     popped; its ValueError names each field by the keyword given for it."""
     kind = {"options": ModelOptions, "penalty": PenaltyConfig}[name]
-    default = getattr(config, name, kind())  # a plain field default: SpeedChange's body split
+    spec = next(f for f in fields(config) if f.name == name)  # SpeedChange's: the body split
+    default = spec.default if spec.default_factory is MISSING else spec.default_factory()
     value = kwargs.pop(name, None)
     value = default if value is None else value
     if not isinstance(value, kind):
-        raise ValueError(f"{config.name}: {name} = {value!r}; allowed: {allowed}")
+        raise refusal(f"{config.name}: {name}", value, allowed)
     given = {field: keyword for keyword, field in keywords.items() if keyword in kwargs}
     if not given:
         return value
@@ -208,7 +209,7 @@ class FlightConfig:
         }
         for name, (kind, allowed) in kinds.items():
             if not isinstance(getattr(self, name), kind):
-                raise ValueError(f"{owner}.{name} = {getattr(self, name)!r}; allowed: {allowed}")
+                raise refusal(f"{owner}.{name}", getattr(self, name), allowed)
         object.__setattr__(self, "clip_actions", bool(self.clip_actions))
         try:
             backend, device = check_backend(self.backend, self.device)
@@ -315,7 +316,7 @@ class FlightConfig:
             insect = replace(insect, **wings)
         for name in _REAL_MODEL_OPTIONS:
             if name in kwargs and not is_real(kwargs[name]):
-                raise ValueError(f"{cls.name}: {name} = {kwargs[name]!r}; allowed: a finite number")
+                raise refusal(f"{cls.name}: {name}", kwargs[name], "a finite number")
         allowed = "a tandem_env.ModelOptions"
         options = _overridden(cls, kwargs, "options", MODEL_OPTION_KWARGS, allowed)
         penalty = kwargs.get("penalty")
@@ -427,7 +428,7 @@ def reset_options(
     if not options:
         return {}
     if not isinstance(options, Mapping):
-        raise ValueError(f"reset options = {options!r}; allowed: None or a dict")
+        raise refusal("reset options", options, "None or a dict")
     for key in options:
         if key in renamed:
             raise ValueError(f"{owner}: reset option {key!r} was renamed; use {renamed[key]!r}")

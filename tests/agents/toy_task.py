@@ -17,7 +17,7 @@ import numpy as np
 
 from tandem_env.envs import Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 from tandem_env.envs.base import FlightCore, FlightEnv, FlightVectorEnv
-from tandem_env.envs.config import FlightConfig, normalise_condition
+from tandem_env.envs.config import FlightConfig
 from tandem_env.envs.declaration import POWER_CAP
 from tandem_env.envs.registration import EnvEntry
 
@@ -53,10 +53,6 @@ class CruiseConfig(FlightConfig):
     cruise_speed: float | None = None
     cruise_speed_range: tuple[float, float] | None = None
     cruise_speed_envelope: tuple[float, float] = (0.5, 1.5)
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        normalise_condition(self)
 
     def describe(self) -> str:
         return CRUISE.condition.describe(self.cruise_speed, self.cruise_speed_range)  # type: ignore[union-attr]
