@@ -41,8 +41,10 @@ from agents.polish import (
     certified,
     finishable,
     polish,
+    split_settings,
+    task_problem,
 )
-from agents.polish_config import env_problem, polishable, split_settings, task_problem
+from agents.polish_config import env_problem, polishable
 from agents.records import (
     CERTIFICATE,
     SELECTION_BEST_FEASIBLE,

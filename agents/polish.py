@@ -159,7 +159,7 @@ class _Run:
     best: tuple[float, np.ndarray] | None = None
     margin: np.ndarray | float = 0.0
     """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
-    active: float = 0.0
+    active: float = field(init=False)
     """How near its held margin a constraint counts as active [-]: ``config.active`` plus
     the largest float32 step of :func:`float32_margin` (the reported stroke is cast to
     float32, which moves each margin by up to half its step)."""

@@ -255,7 +255,7 @@ class CentralDifferences:
     point on k' bounds takes 2k + 1 − k')."""
 
     problem: Problem
-    step: float = real_setting(1e-8, 1e-2, low_inclusive=True, default=1e-5)
+    step: float = 1e-5  # h [-]: PolishConfig.step checks it where it enters
     cost: int = field(init=False)
     name: str = field(init=False, default="central differences")
 

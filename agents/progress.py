@@ -120,7 +120,7 @@ class CommandProgress:
     def _say(self, line: str) -> None:
         self.lines.append(line)
         if self.enabled:
-            print(line, file=QuietStream(), flush=True)
+            QuietStream().write(line + "\n")  # one write: a bar cannot cut the line
 
     def announce(self, phases: Sequence[Phase]) -> None:
         """The first line: the whole command (the plan's look-ahead ``phases``) before work."""

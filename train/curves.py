@@ -90,7 +90,7 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
     left.set(xlabel="env steps (strokes evaluated)", ylabel="mean training reward")
     left.legend(fontsize=7)
     right.set_xlabel("env steps")
-    if any(len(c[3]) for c in curves):
+    if any(len(evaluation_steps) for _, _, _, evaluation_steps, _, _ in curves):
         right.set_ylabel("best feasible objective (line)\ndeterministic reward (dots)", fontsize=8)
         right.set_ylim(-0.5, None)  # deterministic rewards far below 0 are off the chart
     else:

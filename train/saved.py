@@ -304,13 +304,14 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
         for name in archive.namelist():
             if not name.endswith(".pth"):
                 continue
-            stream = io.BytesIO(_read_member(archive, name, path))
             try:
                 with warnings.catch_warnings():  # torch's notes on a file it then refuses
                     warnings.simplefilter("ignore", UserWarning)
+                    stream = io.BytesIO(_read_member(archive, name, path))
                     content = torch.load(stream, map_location="cpu", weights_only=True)
-            # An untrusted file: whatever torch's restricted unpickler or its zip reader raise
-            # (UnpicklingError, RuntimeError, EOFError, ...) means the same refusal.
+            except Incomplete:  # a member that fails its CRC: said as such, not as a load
+                raise
+            # a damaged member (zlib.error, EOFError) or what torch refuses: the same refusal
             except Exception as error:
                 # the line that says what was found (torch explains its defaults at length first)
                 lines = [line.strip() for line in str(error).splitlines() if line.strip()]
