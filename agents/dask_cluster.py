@@ -17,6 +17,7 @@ import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
+from tandem_env.envs.declaration import refusal
 from tandem_env.physics.checks import is_integer
 
 if TYPE_CHECKING:
@@ -86,10 +87,8 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
     """The executor from ``scheduler`` and the shorthand ``workers=N`` (N > 1 means ``local:N``;
     1, the default, leaves ``scheduler`` as given)."""
     if not is_integer(workers) or not 1 <= workers <= MAX_LOCAL_WORKERS:
-        raise ValueError(
-            f"workers = {workers!r}; allowed: an integer from 1 to {MAX_LOCAL_WORKERS} (N > 1 "
-            "means local:N)"
-        )
+        allowed = f"an integer from 1 to {MAX_LOCAL_WORKERS} (N > 1 means local:N)"
+        raise refusal("workers", workers, allowed)
     if workers == 1:
         return None if scheduler is None else parse_scheduler(scheduler)
     if scheduler is not None:

@@ -19,6 +19,7 @@ import tandem_env
 from agents.polish_config import INITIAL_SHARE_RANGE, split_settings
 from agents.tasks import available_tasks, get_task
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
+from tandem_env.envs.declaration import refusal
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics import N_PARAMETERS, ModelOptions
 from tandem_env.physics.checks import count, is_integer, is_real
@@ -256,9 +257,7 @@ class Continuation:
                 raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")
             object.__setattr__(self, name, float(value))
         if self.starts is not None and not (is_integer(self.starts) and 1 <= self.starts <= 8):
-            raise ValueError(
-                f"continuation starts = {self.starts!r}; allowed: an integer in [1, 8]"
-            )
+            raise refusal("continuation starts", self.starts, "an integer in [1, 8]")
         count(self.rounds, "continuation rounds")
 
     def job(self, job: Job, strokes: Sequence[Sequence[float]] | None, index: int = 0) -> Job:

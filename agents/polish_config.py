@@ -17,6 +17,7 @@ import numpy as np
 
 from agents.optimiser import check_settings, integer_setting, real_setting
 from agents.tasks import Condition, TaskSpec
+from tandem_env.envs.declaration import refusal
 from tandem_env.envs.problem import FlightProblem, ProblemEvaluation
 from tandem_env.physics.checks import count, finite_real, is_real
 
@@ -88,9 +89,7 @@ class PolishConfig:
 
     def __post_init__(self) -> None:
         if self.method not in POLISH_METHODS:
-            raise ValueError(
-                f"polish = {self.method!r}; allowed: {', '.join(map(repr, POLISH_METHODS))}"
-            )
+            raise refusal("polish", self.method, ", ".join(map(repr, POLISH_METHODS)))
         check_settings(self, "polish ")
         object.__setattr__(self, "starts", count(self.starts, "starts", high=MAX_STARTS))
         object.__setattr__(self, "initial", _strokes(self.initial))

@@ -16,7 +16,7 @@ import numpy as np
 
 from tandem_env.envs import registration
 from tandem_env.envs.config import FlightConfig
-from tandem_env.envs.declaration import TaskCondition, TaskDeclaration, TaskObjectives
+from tandem_env.envs.declaration import TaskCondition, TaskDeclaration, TaskObjectives, refusal
 from tandem_env.envs.registration import config_class
 from tandem_env.physics.checks import is_real
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
@@ -81,16 +81,12 @@ class TaskSpec:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
-            raise ValueError(
-                f"TaskSpec.name = {self.name!r}; allowed: lower-case letters, digits, '_' and "
-                "'-', starting with a letter"
-            )
+            allowed = "lower-case letters, digits, '_' and '-', starting with a letter"
+            raise refusal("TaskSpec.name", self.name, allowed)
         declared = self.declaration
         if not isinstance(declared, TaskDeclaration) or declared.condition is None:
-            raise ValueError(
-                f"TaskSpec {self.name!r}: declaration = {declared!r}; allowed: a "
-                "TaskDeclaration with a condition and objectives"
-            )
+            allowed = "a TaskDeclaration with a condition and objectives"
+            raise refusal(f"TaskSpec {self.name!r}: declaration", declared, allowed)
 
     @property
     def declared_condition(self) -> TaskCondition:
@@ -116,10 +112,8 @@ class TaskSpec:
         """The recorded condition for ``value`` [the declared unit] (range checks are the env's)."""
         declared = self.declared_condition
         if not is_real(value):  # numpy numbers are; strings (also "1.5") and booleans are not
-            raise ValueError(
-                f"{self.name}: condition {declared.keyword} = {value!r}; allowed: a "
-                f"number [{declared.unit}]"
-            )
+            what = f"{self.name}: condition {declared.keyword}"
+            raise refusal(what, value, f"a number [{declared.unit}]")
         return Condition(declared.keyword, float(value), declared.unit)
 
     def objective_metric(self, env_kwargs: Mapping[str, Any]) -> str:
@@ -128,10 +122,8 @@ class TaskSpec:
         keyword = declared.keyword
         choice = env_kwargs.get(keyword, declared.default) if keyword else declared.default
         if choice not in declared.metrics:
-            raise ValueError(
-                f"{self.name}: {declared.keyword} = {choice!r}; allowed: "
-                f"{', '.join(map(repr, declared.metrics))}"
-            )
+            allowed = ", ".join(map(repr, declared.metrics))
+            raise refusal(f"{self.name}: {declared.keyword}", choice, allowed)
         return declared.metrics[choice]
 
 

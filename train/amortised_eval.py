@@ -26,6 +26,7 @@ import numpy as np
 from agents.records import Record
 from agents.selection import best_index
 from agents.tasks import get_task, task_of
+from tandem_env.envs.declaration import refusal
 from tandem_env.envs.reference import held_out_conditions, normalised_score
 from tandem_env.io.files import output_directory, write_json_atomic
 from tandem_env.physics.checks import is_integer
@@ -68,9 +69,7 @@ def evaluate_held_out(
     from train.amortised_policy import load_policy
 
     if not is_integer(polish_budget) or not 0 <= polish_budget <= MAX_POLISH:
-        raise ValueError(
-            f"polish = {polish_budget!r}; allowed: an integer from 0 (none) to {MAX_POLISH}"
-        )
+        raise refusal("polish", polish_budget, f"an integer from 0 (none) to {MAX_POLISH}")
     if not is_integer(cmaes_budget) or not 0 <= cmaes_budget <= 10**6:
         raise ValueError(f"cmaes budget = {cmaes_budget!r}; allowed: an integer from 0 (none)")
     policy = load_policy(run_dir)

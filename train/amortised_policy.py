@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from tandem_env.envs.declaration import refusal
 from tandem_env.envs.reference import REFERENCE_GRID, training_conditions
 from tandem_env.envs.registration import config_class
 from tandem_env.io.files import read_json, to_jsonable
@@ -109,10 +110,8 @@ class Settings:
             or not all(is_integer(h) and 1 <= h <= 4096 for h in hidden)
             or len(hidden) > 8
         ):
-            raise ValueError(
-                f"hidden = {self.hidden!r}; allowed: 1 to 8 layer widths, each an integer from "
-                "1 to 4096, e.g. [64, 64]"
-            )
+            allowed = "1 to 8 layer widths, each an integer from 1 to 4096, e.g. [64, 64]"
+            raise refusal("hidden", self.hidden, allowed)
         object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
         # the numbers, each in its metadata's range: low (excluded if "above") to high; an
         # int | None setting may also be None
@@ -477,10 +476,8 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
             f"of python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
         )
     if env_id not in REFERENCE_GRID:
-        raise ValueError(
-            f"{layout.args_file}: env = {env_id!r}; allowed: an env an amortised policy is "
-            f"trained for, {', '.join(REFERENCE_GRID)}"
-        )
+        allowed = f"an env an amortised policy is trained for, {', '.join(REFERENCE_GRID)}"
+        raise refusal(f"{layout.args_file}: env", env_id, allowed)
     path = layout.policy_file
     if not path.is_file():
         raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")

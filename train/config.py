@@ -20,6 +20,7 @@ from typing import Any
 import yaml
 
 from tandem_env.envs.config import insect_keyword
+from tandem_env.envs.declaration import refusal
 from tandem_env.envs.registration import check_env_id
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
@@ -205,15 +206,11 @@ def resolve_hyperparams(
     if isinstance(policy_kwargs, str):
         policy_kwargs = eval_policy_kwargs(policy_kwargs)
     if not isinstance(policy_kwargs, dict):
-        raise ValueError(
-            f"policy_kwargs = {policy_kwargs!r}; allowed: a dict or a 'dict(...)' string"
-        )
+        raise refusal("policy_kwargs", policy_kwargs, "a dict or a 'dict(...)' string")
     arch = policy_kwargs.get("net_arch")
     if arch is not None and not _layer_sizes(arch):
-        raise ValueError(
-            f"net_arch = {arch!r}; allowed: a list of layer sizes >= 1, or a dict of such lists "
-            "(pi, vf, qf)"
-        )
+        allowed = "a list of layer sizes >= 1, or a dict of such lists (pi, vf, qf)"
+        raise refusal("net_arch", arch, allowed)
     if arch is not None and network_parameters(arch) > MAX_NETWORK_PARAMETERS:
         raise ValueError(
             f"net_arch = {arch!r} has at least {network_parameters(arch):,} weights; allowed: "

@@ -20,6 +20,7 @@ from eval.studies.presets import fail, is_int, is_name, is_number
 from tandem_env import Dragonfly, ModelOptions
 from tandem_env.envs import ACCELERATE
 from tandem_env.envs.config import MODEL_OPTION_KWARGS
+from tandem_env.envs.declaration import refusal
 
 #: ModelOptions fields that set the numerics (resolution, solver), not a reading of the paper.
 NUMERICAL_OPTIONS: frozenset[str] = frozenset({"n_time", "n_blade", "tolerance", "max_evaluations"})
@@ -48,9 +49,7 @@ def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
     try:
         pairs = tuple(sorted((k, v) for k, v in items))
     except (TypeError, ValueError):
-        raise ValueError(
-            f"{where} = {value!r}; allowed: (name, value) pairs or a mapping"
-        ) from None
+        raise refusal(where, value, "(name, value) pairs or a mapping") from None
     names = [k for k, _ in pairs]
     if not all(isinstance(k, str) and k for k in names) or len(set(names)) != len(names):
         raise ValueError(f"{where} = {value!r}; allowed: each name once, as text")

@@ -14,7 +14,7 @@ from gymnasium.vector import VectorEnv
 from ..physics import AVAILABLE_POWER_LIMITS, DRAGONFLY, SPEED_LIMITS, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
 from .config import FlightConfig
-from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
+from .declaration import FLIGHT_LIMITS, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 
 #: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
 SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass
@@ -60,7 +60,7 @@ ACCELERATE = TaskDeclaration(
     constraints=(
         Constraint("vertical_deficit", "F̄_v ≥ 0", "-", margin=_vertical_margin),
         Constraint("horizontal_deficit", "F̄_h ≥ 0", "-", margin=_horizontal_margin),
-        POWER_CAP,
+        *FLIGHT_LIMITS,
     ),
 )
 

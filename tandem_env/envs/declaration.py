@@ -207,6 +207,8 @@ class Constraint:
     margin: Callable[[Result, Any], np.ndarray] | None = None
     """``margin(result, config)``: (B,) signed margin [-] with ``max(0, −margin) == violation /
     scale``, smooth across the boundary (what the polish needs); None for none."""
+    applies: Callable[[Any], bool] | None = None
+    """``applies(config)``: whether ``config`` asks for this constraint; None: always."""
 
     def __post_init__(self) -> None:
         if self.violation is None and self.margin is None:
@@ -229,6 +231,22 @@ def _power_margin(result: Result, _: Any) -> np.ndarray:
 POWER_CAP = Constraint(
     "power_violation", "P/m ≤ P_avail", "W/kg", _power_excess, _power_cap, _power_margin
 )
+
+
+def _gap_margin(result: Result, config: Any) -> Any:
+    return result.wing_gap / config.insect.min_wing_gap - 1.0
+
+
+def _gap_set(config: Any) -> bool:
+    return config.insect.min_wing_gap is not None
+
+
+#: The wings' least distance, where the insect sets one (``min_wing_gap`` [m]; docs/envs.md).
+WING_GAP = Constraint(
+    "wing_gap_violation", "gap ≥ min_wing_gap", "-", margin=_gap_margin, applies=_gap_set
+)
+#: What every flight task asks of a stroke besides its own constraints.
+FLIGHT_LIMITS = (POWER_CAP, WING_GAP)
 
 
 @dataclass(frozen=True)
@@ -278,12 +296,16 @@ class TaskDeclaration:
                 "tuple of Constraint (empty for an unconstrained task)"
             )
 
+    def constraints_of(self, config: Any) -> tuple[Constraint, ...]:
+        """The constraints ``config`` asks for (:attr:`Constraint.applies`), in order."""
+        return tuple(c for c in self.constraints if c.applies is None or c.applies(config))
+
     def score(self, result: Result, config: Any) -> Scores:
         """The constraints of ``config``'s task on a batch's model ``result``."""
         violations: dict[str, np.ndarray] = {}
         total = np.zeros(result.power.shape)
         feasible = np.ones(result.power.shape, dtype=np.bool_)
-        for constraint in self.constraints:
+        for constraint in self.constraints_of(config):
             if constraint.violation is None:
                 value = np.maximum(0.0, -constraint.margin(result, config))  # type: ignore[misc]
             else:

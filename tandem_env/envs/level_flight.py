@@ -14,7 +14,7 @@ from gymnasium.vector import VectorEnv
 from ..physics import SPEED_LIMITS, ModelOptions, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
 from .config import MODEL_OPTION_KWARGS, FlightConfig
-from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
+from .declaration import FLIGHT_LIMITS, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 
 
 # Each violation is max(0, −margin). The margins are array-agnostic (builtin abs, arithmetic):
@@ -47,7 +47,7 @@ LEVEL_FLIGHT = TaskDeclaration(
     constraints=(
         Constraint("lift_violation", "|L/W − 1| ≤ tol", "-", margin=_lift_margin),
         Constraint("thrust_violation", "|T − D|/W ≤ tol", "-", margin=_thrust_margin),
-        POWER_CAP,
+        *FLIGHT_LIMITS,
     ),
 )
 

@@ -63,9 +63,9 @@ class FlightProblem:
     ``normalised_low`` / ``normalised_high`` (28,) (the action box's bounds), ``physical_low`` /
     ``physical_high`` (28,) (their images, the insect's stroke bounds [Hz, deg, -], Table 4's
     unless it sets its own), ``discrete`` (28,) bool (each wing's harmonic N), ``constraints``
-    (the declaration's, in the margins' column order), ``constraint_names`` (their violations'
-    ``info`` keys) and ``has_margins`` (every constraint declares a signed margin, what
-    :meth:`differentiate` and a gradient-based optimiser need). The arrays are read-only.
+    (the declaration's the config asks for, in the margins' column order), ``constraint_names``
+    (their violations' ``info`` keys) and ``has_margins`` (every constraint declares a signed
+    margin, what :meth:`differentiate` and a gradient-based optimiser need). Arrays read-only.
     """
 
     #: Number of action coordinates (28).
@@ -86,7 +86,7 @@ class FlightProblem:
         for name, array in {**arrays, "discrete": DISCRETE.copy()}.items():
             array.setflags(write=False)
             setattr(self, name, array)
-        self.constraints: tuple[Constraint, ...] = self.declaration.constraints
+        self.constraints: tuple[Constraint, ...] = self.declaration.constraints_of(self.config)
         self.constraint_names = tuple(c.name for c in self.constraints)
         self.has_margins = all(c.margin is not None for c in self.constraints)
 

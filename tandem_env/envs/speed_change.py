@@ -261,8 +261,7 @@ class SpeedChangeCore:
             "reward_termination": np.where(terminated, -weights.termination * not_flown, 0.0),
         }
         objective = sum(terms.values())
-        # the power cap as in level flight (SPEED_CHANGE's one constraint), penalised per cycle
-        # by the env's PenaltyConfig (exactly 0 within the cap)
+        # every flight task's limits, penalised per cycle by the env's PenaltyConfig (0 within)
         scores = SPEED_CHANGE.score(result, cfg)
         motion = {"cycle_time": dt, "force_horizontal": fx, "force_vertical": fz, "energy": energy}
         motion |= {**terms, "left_altitude_band": left_altitude, "left_speed_band": left_speed}

@@ -10,7 +10,7 @@ from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
 from ..physics.checks import is_integer
 from ..physics.stroke import WING_NAMES
 from .config import FlightConfig, check_interval, check_real, fixed_or_sampled, store_checked
-from .declaration import POWER_CAP, TaskDeclaration, refusal
+from .declaration import FLIGHT_LIMITS, TaskDeclaration, refusal
 from .level_flight import LEVEL_FLIGHT
 
 #: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
@@ -30,7 +30,7 @@ SPEED_CHANGE = TaskDeclaration(
     summary="Multi-cycle flight: reach a target speed and hold altitude, one stroke per wing-beat.",
     # No single condition: two speeds (start and target) share one envelope (speed_envelope),
     # a range defaults to the whole envelope, and the harness does not run multi-cycle episodes.
-    constraints=(POWER_CAP,),
+    constraints=FLIGHT_LIMITS,
 )
 
 

@@ -4,60 +4,317 @@ Each wing is a flat surface: at every span station r its chord, centred on the p
 mid-chord, §2.4), along the chord direction e_c of its frame (§4.1-4.2), the root of the
 hind-wing ``Dragonfly.root_spacing`` behind and ``root_drop`` below the fore-wing's. The model
 itself does not use this (its slipstream is a reading of the wake, §5.7); it tells which
-strokes a solver of the wing surfaces (a vortex lattice) cannot take.
+strokes a solver of the wing surfaces (a vortex lattice) cannot take, and which optima have
+brought the wings together (§5.8, *The wings meet*). :func:`wing_clearance` samples a fixed
+grid; :func:`wing_gap` searches for the least distance, with the formulas written once
+(:func:`chord_ends`, :func:`segment_gap`: compiled, and on numpy or torch arrays).
 """
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
 import numpy as np
+from numba import njit, prange
 
 from .checks import is_integer
-from .insect import DRAGONFLY, Dragonfly
-from .kinematics import fill_angles, wing_params_radians
+from .insect import DRAGONFLY, MAX_EDGE_COEFFICIENTS, Dragonfly, Wing
+from .kinematics import (
+    MAX_SWEEP_SHAPE,
+    angles_at,
+    flapping,
+    pitching_scaled,
+    weaving_scaled,
+    wing_params_radians,
+)
 from .stroke import N_PER_WING, validate_physical
+from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, select, stroke_loop
+
+#: The coarse grid :func:`wing_gap` starts from: instants per fore-wing cycle and span
+#: stations per wing; its local minima are then followed to the least distance (docs/model.md
+#: §5.8, *The wings meet*).
+GAP_GRID = (32, 9)
+#: The coarse grid's instants whose local minima :func:`wing_gap` follows, the closest first.
+GAP_CANDIDATES = 3
+#: Where the search for the least distance stops: its step in the time (a fraction of the
+#: fore-wing's cycle) and in r/R [-].
+GAP_STEP = 1e-8
 
 
-def _segment_distance(p0, u, q0, v):
-    """Smallest distance between the segments p0 + s·u and q0 + t·v, s, t ∈ [0, 1] (arrays of
-    3-vectors on the last axis, broadcast together) [m] (the closest points of Eberly's
-    "Distance between two line segments in 3D", clamped to both segments)."""
-    w0 = p0 - q0
-    a = np.maximum(np.einsum("...i,...i", u, u), 1e-300)
-    b = np.einsum("...i,...i", u, v)
-    c = np.maximum(np.einsum("...i,...i", v, v), 1e-300)
-    d = np.einsum("...i,...i", u, w0)
-    e = np.einsum("...i,...i", v, w0)
+@njit(cache=True, error_model=BRANCH_FREE)
+def segment_gap(px, py, pz, ux, uy, uz, qx, qy, qz, vx, vy, vz):
+    """Smallest distance [m] between the segments p + s·u and q + t·v, s, t ∈ [0, 1] (the
+    closest points of Eberly's "Distance between two line segments in 3D", clamped to both
+    segments); elementwise (numba scalars, or numpy / torch arrays through ``on_namespace``)."""
+    wx, wy, wz = px - qx, py - qy, pz - qz
+    a = np.maximum(ux * ux + uy * uy + uz * uz, 1e-300)
+    b = ux * vx + uy * vy + uz * vz
+    c = np.maximum(vx * vx + vy * vy + vz * vz, 1e-300)
+    d = ux * wx + uy * wy + uz * wz
+    e = vx * wx + vy * wy + vz * wz
     det = a * c - b * b
     parallel = det <= 1e-12 * a * c
-    # the lines' closest s, clamped to [0, 1]; then t for that s, clamped; then s again for t
-    s = np.where(parallel, 0.0, np.clip((b * e - c * d) / np.where(parallel, 1.0, det), 0.0, 1.0))
-    t = np.clip((b * s + e) / c, 0.0, 1.0)
-    s = np.clip((b * t - d) / a, 0.0, 1.0)
-    gap = w0 + s[..., None] * u - t[..., None] * v
-    return np.sqrt(np.einsum("...i,...i", gap, gap))
+    # the lines' closest s, clamped to [0, 1] (0 for parallel segments); then t for that s,
+    # clamped; then s again for that t
+    s = np.minimum(np.maximum((b * e - c * d) / select(parallel, 0.0 * a + 1.0, det), 0.0), 1.0)
+    s = select(parallel, 0.0 * a, s)
+    t = np.minimum(np.maximum((b * s + e) / c, 0.0), 1.0)
+    s = np.minimum(np.maximum((b * t - d) / a, 0.0), 1.0)
+    gx, gy, gz = wx + s * ux - t * vx, wy + s * uy - t * vy, wz + s * uz - t * vz
+    return np.sqrt(gx * gx + gy * gy + gz * gz)
 
 
-def _wing_chords(wing_params, wing, phases, root, span_fraction):
-    """Leading end (n_time, n_span, 3) and chord vector of each span station in earth axes [m]."""
-    angles = np.empty((phases.shape[0], 9))
-    fill_angles(wing_params, phases, angles)
-    phi, theta, eta = angles[:, 0:1], angles[:, 3:4], angles[:, 6:7]
-    cf, sf, ct, st, ce, se = (np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta),
-                              np.cos(eta), np.sin(eta))  # fmt: skip
-    # span and chord directions in stroke-plane axes (blade.fill_frame_coefficients, right wing)
-    span = np.stack([ct * sf, ct * cf, st], axis=-1)
-    chord = np.stack([se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce], axis=-1)
-    beta = wing_params[13]
-    to_earth = np.array(
-        [[np.cos(beta), 0.0, np.sin(beta)], [0.0, 1.0, 0.0], [-np.sin(beta), 0.0, np.cos(beta)]]
-    )  # columns: x_s, y_s, z_s in earth axes
-    span = span @ to_earth.T
-    chord = chord @ to_earth.T
-    r = span_fraction * wing.length
-    c = wing.chord(span_fraction)
-    axis = root + r[None, :, None] * span  # (n_time, n_span, 3)
-    vector = c[None, :, None] * chord
-    return axis - 0.5 * vector, vector
+@njit(cache=True)
+def chord_ends(phi, theta, eta, beta, r, c):
+    """Leading end (x, y, z) [m] relative to the root, and chord vector (x, y, z) [m], in earth
+    axes, of the right wing's span station r [m] with chord c [m], centred on the pitch axis
+    (§2.4), at sweep φ, elevation θ, pitch η and stroke-plane angle β [rad]: the span and chord
+    directions of its frame (``blade.fill_frame_coefficients``, §4.1-4.2); elementwise."""
+    cf, sf, ct, st, ce, se = (
+        np.cos(phi),
+        np.sin(phi),
+        np.cos(theta),
+        np.sin(theta),
+        np.cos(eta),
+        np.sin(eta),
+    )
+    cb, sb = np.cos(beta), np.sin(beta)
+    span_x, span_y, span_z = ct * sf, ct * cf, st  # stroke-plane axes
+    chord_x, chord_y, chord_z = se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce
+    # stroke-plane axes to earth axes: a rotation by β about y
+    ux, uy, uz = c * (cb * chord_x + sb * chord_z), c * chord_y, c * (cb * chord_z - sb * chord_x)
+    ax, ay, az = r * (cb * span_x + sb * span_z), r * span_y, r * (cb * span_z - sb * span_x)
+    return ax - 0.5 * ux, ay - 0.5 * uy, az - 0.5 * uz, ux, uy, uz
+
+
+def _planform_table(wing: Wing) -> np.ndarray:
+    """The chord c(r/R) of ``wing`` for the compiled search: [R, kind, coefficients …] with
+    kind 0 the tear-drop (Eq. 1; c = k₀·√(1 − r̂²)), kind 1 a polynomial in r̂ (Eq. 2)."""
+    if wing.planform == "tear-drop":
+        return np.array([wing.length, 0.0, 4.0 * wing.mean_chord / np.pi])
+    assert wing.real_edges is not None
+    upper, lower = (np.asarray(c, dtype=float) for c in wing.real_edges)
+    width = np.zeros(MAX_EDGE_COEFFICIENTS)
+    width[: len(upper)] += upper
+    width[: len(lower)] -= lower
+    return np.array([wing.length, 1.0, *(wing.length * width)])
+
+
+@njit(cache=True)
+def _frame(params, scales, length, tau):
+    """The tip's axis point [m] and the unit chord [-] of a wing with parameters ``params``
+    (14, Hz/rad/-) and waveform ``scales`` (sweep, pitch) at its phase ``tau`` [rad], as a
+    6-tuple: a station's ends follow from it (:func:`_ends`)."""
+    omega = 2.0 * math.pi * params[0]
+    k = min(params[10], MAX_SWEEP_SHAPE)
+    phi = weaving_scaled(tau, omega, scales[0], k, params[4], params[7])[0]
+    theta = flapping(tau, omega, params[2], params[5], params[8], params[11])[0]
+    eta = pitching_scaled(tau, omega, scales[1], params[6], params[9], params[12])[0]
+    ends = chord_ends(phi, theta, eta, params[13], length, 1.0)
+    return (
+        ends[0] + 0.5 * ends[3], ends[1] + 0.5 * ends[4], ends[2] + 0.5 * ends[5],
+        ends[3], ends[4], ends[5],
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _chord(table, rho):
+    """The chord [m] at r/R = ``rho`` of the planform ``table`` (:func:`_planform_table`)."""
+    if table[1] == 0.0:
+        return table[2] * math.sqrt(max(1.0 - rho * rho, 0.0))
+    chord = 0.0
+    for k in range(table.shape[0] - 1, 1, -1):
+        chord = chord * rho + table[k]
+    return chord
+
+
+@njit(cache=True)
+def _pair_gap(fore, hind, tables, hind_root, rho_fore, rho_hind):
+    """Distance [m] between the fore-wing's chord at r/R = ``rho_fore`` and the hind-wing's at
+    ``rho_hind``, of the wings' frames ``fore`` and ``hind`` (:func:`_frame`)."""
+    c, e = _chord(tables[0], rho_fore), _chord(tables[1], rho_hind)
+    return segment_gap(
+        rho_fore * fore[0] - 0.5 * c * fore[3],
+        rho_fore * fore[1] - 0.5 * c * fore[4],
+        rho_fore * fore[2] - 0.5 * c * fore[5],
+        c * fore[3], c * fore[4], c * fore[5],
+        rho_hind * hind[0] - 0.5 * e * hind[3] + hind_root[0],
+        rho_hind * hind[1] - 0.5 * e * hind[4] + hind_root[1],
+        rho_hind * hind[2] - 0.5 * e * hind[5] + hind_root[2],
+        e * hind[3], e * hind[4], e * hind[5],
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _frames(params, scales, tables, x):
+    """Both wings' frames (:func:`_frame`) at the fraction ``x`` of the fore-wing's cycle, each
+    wing at its own phase."""
+    tau = 2.0 * math.pi * x
+    fore = _frame(params[0], scales[0], tables[0, 0], tau)
+    hind = _frame(params[1], scales[1], tables[1, 0], tau * params[1, 0] / params[0, 0])
+    return fore, hind
+
+
+#: The compass search's directions (x, r̂_fore, r̂_hind): the axes and the diagonals of each
+#: pair of them, either way (a valley across the axes stalls a search along them alone).
+DIRECTIONS = (
+    np.array([d for d in np.ndindex(3, 3, 3) if sum(1 for v in d if v != 1) in (1, 2)], dtype=float)
+    - 1.0
+)
+
+
+@njit(cache=True)
+def _follow(params, scales, tables, hind_root, start, step_x, step_rho):
+    """A compass search from ``start`` (x, r̂_fore, r̂_hind) to a local least distance: after a
+    scan along the time, a step along each of :data:`DIRECTIONS`, the first that comes closer
+    taken; the steps halved where none does, down to :data:`GAP_STEP` (each coordinate held in
+    [0, 1]). Returns (distance [m], x, r̂_fore, r̂_hind)."""
+    point = start.copy()
+    fore, hind = _frames(params, scales, tables, point[0])
+    best = _pair_gap(fore, hind, tables, hind_root, point[1], point[2])
+    # first along the time at the start's stations, finer than the coarse grid (two minima of
+    # a root chord's distance can lie within one of its steps)
+    for m in range(-16, 17):
+        x = min(max(start[0] + m * step_x / 16.0, 0.0), 1.0)
+        trial_fore, trial_hind = _frames(params, scales, tables, x)
+        value = _pair_gap(trial_fore, trial_hind, tables, hind_root, point[1], point[2])
+        if value < best:
+            best, point[0], fore, hind = value, x, trial_fore, trial_hind
+    steps = np.array([step_x, step_rho, step_rho])
+    last = 0  # the direction that came closer last is tried first
+    while steps[0] > GAP_STEP or steps[1] > GAP_STEP:
+        moved = False
+        for n in range(DIRECTIONS.shape[0]):
+            d = (last + n) % DIRECTIONS.shape[0]
+            trial = point + DIRECTIONS[d] * steps
+            for i in range(3):
+                trial[i] = min(max(trial[i], 0.0), 1.0)
+            trial_fore, trial_hind = fore, hind  # the frames move only with the time
+            if trial[0] != point[0]:
+                trial_fore, trial_hind = _frames(params, scales, tables, trial[0])
+            value = _pair_gap(trial_fore, trial_hind, tables, hind_root, trial[1], trial[2])
+            if value < best:
+                best, point, moved, fore, hind = value, trial, True, trial_fore, trial_hind
+                last = d
+                break
+        if not moved:
+            steps *= 0.5
+    return best, point[0], point[1], point[2]
+
+
+@stroke_loop()
+def _search(params, tables, hind_root, n_time, n_span, out):
+    """The least distance's place (x, r̂_fore, r̂_hind) of each stroke, into ``out`` (B, 3):
+    the coarse grid's instants, their :data:`GAP_CANDIDATES` closest local minima followed by
+    :func:`_follow`, the closest kept."""
+    for b in prange(params.shape[0]):
+        stroke = params[b]
+        scales = np.empty((2, 2))
+        for w in range(2):
+            scales[w, 0] = stroke[w, 1] / math.asin(min(stroke[w, 10], MAX_SWEEP_SHAPE))
+            scales[w, 1] = stroke[w, 3] / math.tanh(stroke[w, 12])
+        # the instants x = k/n_time, k = 0 … n_time, both ends: where the wings beat at
+        # different frequencies the cycle's end is not its start
+        nearest = np.full(n_time + 1, np.inf)
+        where = np.zeros((n_time + 1, 2))
+        ends = np.empty((2, n_span, 6))  # each station's leading end and chord [m]
+        for k in range(n_time + 1):
+            frames = _frames(stroke, scales, tables, k / n_time)
+            for w in range(2):
+                for i in range(n_span):
+                    rho = i / (n_span - 1)
+                    chord = _chord(tables[w], rho)
+                    for m in range(3):
+                        ends[w, i, m] = rho * frames[w][m] - 0.5 * chord * frames[w][3 + m]
+                        ends[w, i, 3 + m] = chord * frames[w][3 + m]
+            ends[1, :, :3] += hind_root
+            for i in range(n_span):
+                p = ends[0, i]
+                for j in range(n_span):
+                    q = ends[1, j]
+                    value = segment_gap(
+                        p[0], p[1], p[2], p[3], p[4], p[5], q[0], q[1], q[2], q[3], q[4], q[5]
+                    )
+                    if value < nearest[k]:
+                        nearest[k] = value
+                        where[k, 0], where[k, 1] = i / (n_span - 1), j / (n_span - 1)
+        # the local minima over the instants, the closest first
+        minimum = np.zeros(n_time + 1, dtype=np.bool_)
+        for k in range(n_time + 1):
+            below = k == 0 or nearest[k] <= nearest[k - 1]
+            minimum[k] = below and (k == n_time or nearest[k] <= nearest[k + 1])
+        order = np.argsort(np.where(minimum, nearest, np.inf))
+        best = np.inf
+        for k in order[: min(GAP_CANDIDATES, minimum.sum())]:
+            start = np.array([k / n_time, where[k, 0], where[k, 1]])
+            found = _follow(
+                stroke, scales, tables, hind_root, start, 1.0 / n_time, 1.0 / (n_span - 1)
+            )
+            if found[0] < best:
+                best = found[0]
+                out[b, 0], out[b, 1], out[b, 2] = found[1], found[2], found[3]
+
+
+def gap_place(physical: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray:
+    """(B, 3) where the fore- and hind-wing come closest over a cycle: the fraction of the
+    fore-wing's cycle [-] and the span stations r/R of the fore- and hind-wing [-], of (B, 28)
+    validated physical strokes (Table 4 units): the compiled search of :func:`wing_gap`."""
+    params = np.stack(
+        [wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)],
+        axis=1,
+    )
+    tables = np.zeros((2, 2 + MAX_EDGE_COEFFICIENTS))
+    for w, wing in enumerate((insect.fore, insect.hind)):
+        table = _planform_table(wing)
+        tables[w, : len(table)] = table
+    hind_root = np.array([-insect.root_spacing, 0.0, -insect.root_drop])
+    out = np.empty((physical.shape[0], 3))
+    _search(len(out), np.ascontiguousarray(params), tables, hind_root, *GAP_GRID, out)
+    return out
+
+
+def gap_at(
+    physical: Any, place: np.ndarray, insect: Dragonfly = DRAGONFLY, xp: ArrayNamespace = NUMPY
+) -> Any:
+    """(B,) distance [m] between the fore-wing's chord and the hind-wing's at ``place`` (B, 3)
+    (:func:`gap_place`) of physical strokes (B, 28) in the array namespace ``xp``: on torch,
+    differentiable with respect to the strokes (at a least distance, its derivative with the
+    place held is the whole derivative: the envelope theorem)."""
+    fore = wing_params_radians(physical[:, :N_PER_WING], xp)
+    hind = wing_params_radians(physical[:, N_PER_WING:], xp)
+    like = fore[:, :1]
+    x = xp.constant_like(place[:, :1], like)
+    ends = []
+    for params, wing, rho, ratio in (
+        (fore, insect.fore, place[:, 1:2], None),
+        (hind, insect.hind, place[:, 2:3], hind[:, :1] / fore[:, :1]),
+    ):
+        tau = 2.0 * math.pi * x if ratio is None else 2.0 * math.pi * x * ratio
+        angles = angles_at(params, tau, xp)
+        r = xp.constant_like(rho * wing.length, like)
+        c = xp.constant_like(wing.chord(rho), like)
+        ends.append(
+            on_namespace(chord_ends, xp)(angles[0], angles[3], angles[6], params[:, 13:14], r, c)
+        )
+    (p, q), root = ends, (-insect.root_spacing, 0.0, -insect.root_drop)
+    gap = on_namespace(segment_gap, xp)(*p[:3], *p[3:], *(q[i] + root[i] for i in range(3)), *q[3:])
+    return gap[:, 0]
+
+
+def wing_gap(strokes: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray:
+    """The least distance [m] between the fore- and hind-wing's surfaces over a cycle, (B,), of
+    (B, 28) or (28,) physical strokes (Table 4 units), over the instants 0 ≤ t ≤ 1/f_fore: the
+    coarse grid :data:`GAP_GRID`, its closest local minima followed
+    to a step of :data:`GAP_STEP` (:func:`gap_place`), and the distance there (:func:`gap_at`).
+    A continuous search, so smooth in the stroke where the closest place moves smoothly; zero
+    where the wings cross. :func:`wing_clearance` is the same on a fixed grid (what this is
+    tested against), at about 40 times the cost: the measure a task's constraint on the
+    wings' distance needs (docs/model.md §5.8, *The wings meet*)."""
+    if not isinstance(insect, Dragonfly):
+        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
+    physical = validate_physical(strokes, bounds=insect.stroke_bounds)
+    return gap_at(physical, gap_place(physical, insect), insect)
 
 
 def wing_clearance(
@@ -86,20 +343,20 @@ def wing_clearance(
         raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
     physical = validate_physical(strokes, bounds=insect.stroke_bounds)
     fraction = np.linspace(0.0, 1.0, n_span)
-    roots = (np.zeros(3), np.array([-insect.root_spacing, 0.0, -insect.root_drop]))
+    hind_root = (-insect.root_spacing, 0.0, -insect.root_drop)
     out = np.empty(physical.shape[0])
+    ends_of, gap_of = on_namespace(chord_ends, NUMPY), on_namespace(segment_gap, NUMPY)
     for b, stroke in enumerate(physical):
         params = [
-            wing_params_radians(stroke[w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)
+            wing_params_radians(stroke[None, w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)
         ]
-        time = np.arange(n_time) / (n_time * params[0][0])
-        chords = [
-            _wing_chords(p, wing, 2.0 * np.pi * p[0] * time, root, fraction)
-            for p, wing, root in zip(params, (insect.fore, insect.hind), roots, strict=True)
-        ]
-        (p0, u), (q0, v) = chords
-        distance = _segment_distance(
-            p0[:, :, None, :], u[:, :, None, :], q0[:, None, :, :], v[:, None, :, :]
-        )
-        out[b] = distance.min()
+        time = np.arange(n_time)[:, None] / (n_time * params[0][0, 0])
+        ends = []
+        for p, wing in zip(params, (insect.fore, insect.hind), strict=True):
+            angles = [a.T for a in angles_at(p, 2.0 * np.pi * p[0, 0] * time.T)]  # (n_time, 1)
+            r, c = fraction * wing.length, wing.chord(fraction)
+            ends.append(ends_of(angles[0], angles[3], angles[6], p[0, 13], r, c))
+        fore = [e[:, :, None] for e in ends[0]]  # (n_time, n_span, 1)
+        hind = [e[:, None, :] + (hind_root[i] if i < 3 else 0.0) for i, e in enumerate(ends[1])]
+        out[b] = gap_of(*fore, *hind).min()
     return out

@@ -89,6 +89,8 @@ DRAGONFLY_LIMITS: dict[str, Limit] = {
     "root_spacing": Limit(0.0, 1.0, "m", "a body of at most 1 m"),
     "root_drop": Limit(0.0, 1.0, "m", "a body of at most 1 m"),
 }
+#: The largest least distance between the wings a flyer may ask for [m]: a body of at most 1 m.
+MAX_WING_GAP = 1.0
 #: Thickest wing, as a share of its mean chord [-]: the blade elements are thin plates (the
 #: specimen's is 3.5 µm on a 5.88 mm chord, 0.06 %).
 MAX_THICKNESS_RATIO = 0.1
@@ -342,6 +344,11 @@ class Dragonfly:
     searched in (the env's action map, the optimisers' box) and :func:`tandem_env.evaluate`
     checks. Table 4's unless set; in a mapping or file, the parameters that differ
     (``stroke_bounds: {fore_frequency: [15, 25]}``, :meth:`StrokeBounds.with_changes`)."""
+    min_wing_gap: float | None = None
+    """The least distance [m] the fore- and hind-wing surfaces keep over a cycle: a constraint
+    of every flight task (``wing_gap_violation``), the model reporting the distance as
+    ``Result.wing_gap`` (:func:`~tandem_env.physics.clearance.wing_gap`); None, the paper's
+    specimen: no such constraint, and none computed (docs/model.md §5.8, *The wings meet*)."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.fore, Wing) or not isinstance(self.hind, Wing):
@@ -352,6 +359,14 @@ class Dragonfly:
                 "(in a mapping or file: {name: [low, high]} of the parameters that differ)"
             )
         _check_limits(self, DRAGONFLY_LIMITS)
+        if self.min_wing_gap is not None:
+            gap = self.min_wing_gap
+            if not (is_real(gap) and math.isfinite(gap) and 0.0 < gap <= MAX_WING_GAP):
+                raise ValueError(
+                    f"Dragonfly.min_wing_gap = {gap!r}; allowed: None (no constraint) or a "
+                    f"distance 0 < min_wing_gap <= {MAX_WING_GAP:g} m"
+                )
+            object.__setattr__(self, "min_wing_gap", float(gap))
         if not is_integer(self.wings_per_pair) or self.wings_per_pair not in (1, 2):
             raise ValueError(f"Dragonfly.wings_per_pair = {self.wings_per_pair!r}; allowed: 1 or 2")
         object.__setattr__(self, "wings_per_pair", int(self.wings_per_pair))
@@ -365,12 +380,14 @@ class Dragonfly:
 
     def to_dict(self) -> dict[str, Any]:
         """The fields as JSON takes them (``tandem_env.io.files.to_jsonable``), without
-        ``stroke_bounds`` where they are Table 4's: a flyer that keeps the paper's bounds has
-        the JSON, the fingerprints and the reference scores it had before they could be set."""
+        ``stroke_bounds`` where they are Table 4's and without ``min_wing_gap`` where it is
+        None: a flyer that keeps the paper's bounds and sets no gap has the JSON, the
+        fingerprints and the reference scores it had before they could be set."""
+        unset = {"stroke_bounds": TABLE_4_BOUNDS, "min_wing_gap": None}
         return {
             f.name: getattr(self, f.name)
             for f in fields(self)
-            if f.name != "stroke_bounds" or self.stroke_bounds != TABLE_4_BOUNDS
+            if f.name not in unset or getattr(self, f.name) != unset[f.name]
         }
 
     @property

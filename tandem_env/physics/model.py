@@ -11,13 +11,13 @@ decides.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from functools import lru_cache
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import blade, cycle, interaction
+from . import blade, clearance, cycle, interaction
 from .bundle import Outputs, Settings, WingBatch
 from .checks import real_array, shown
 from .coefficients import PaperCoefficients
@@ -166,6 +166,10 @@ class Result:
     """Flight-path angle γ [rad], + climbing."""
     available_power: np.ndarray
     """Available power per mass [W/kg]."""
+    wing_gap: np.ndarray | None = None
+    """The least distance between the fore- and hind-wing surfaces over the cycle [m]
+    (:func:`~tandem_env.physics.clearance.wing_gap`), computed where the insect sets
+    ``min_wing_gap`` (the tasks' constraint on it); None otherwise, and then in no dict."""
     options: ModelOptions = DEFAULT_OPTIONS
     """The options this result was computed with (thrust split, power convention, …)."""
     planform: str = "tear-drop"
@@ -179,8 +183,13 @@ class Result:
         return {name: getattr(self, name) for name in METRIC_NAMES}
 
     def as_dict(self) -> dict[str, np.ndarray]:
-        """Every (B,) array field as a dict (the metadata ``options``, ``planform`` excluded)."""
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in _METADATA}
+        """Every (B,) array field as a dict (the metadata ``options``, ``planform`` and an
+        optional field not computed excluded)."""
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if f.name not in _METADATA and getattr(self, f.name) is not None
+        }
 
     def row(self, index: int) -> dict[str, float | int | bool]:
         """Plain Python values of one stroke (for ``info`` dicts and JSON records)."""
@@ -197,6 +206,8 @@ class Result:
 
 
 _METADATA = ("options", "planform")
+#: The fields computed only where asked (None otherwise): the wings' least distance.
+OPTIONAL_FIELDS = ("wing_gap",)
 
 # --- the flight condition's limits (the one home: envs, history and studies use these) --------
 #: Flight speeds V the model accepts [m/s]: forward flight (V >= 0), up to ten times the
@@ -694,4 +705,9 @@ def evaluate_numba(
     out, _, _ = run_kernel(
         angles, weights, frequency, beta, sweep, v, gamma, insect, options, motion=motion
     )
-    return _performance(out, v, gamma, p_avail, insect, options)
+    result = _performance(out, v, gamma, p_avail, insect, options)
+    if insect.min_wing_gap is None:
+        return result
+    return replace(
+        result, wing_gap=clearance.gap_at(physical, clearance.gap_place(physical, insect), insect)
+    )

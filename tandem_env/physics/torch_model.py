@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from . import blade, cycle, induction, interaction
+from . import blade, clearance, cycle, induction, interaction
 from .bundle import Section
 from .checks import count, flag
 from .coefficients import PaperCoefficients
@@ -55,6 +55,7 @@ from .kinematics import batched_angle_history, wing_params_radians
 from .model import (
     _METADATA,
     DEFAULT_OPTIONS,
+    OPTIONAL_FIELDS,
     Result,
     check_model_inputs,
     flight_performance,
@@ -97,11 +98,14 @@ CHUNK_SIZE = {"cpu": 1024, "cuda": 16384}
 
 #: The array fields of ``Result``, read from the dataclass itself (a field added there or
 #: removed is a test failure here, not silent drift).
-RESULT_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Result) if f.name not in _METADATA)
+RESULT_FIELDS: tuple[str, ...] = tuple(
+    f.name for f in fields(Result) if f.name not in (*_METADATA, *OPTIONAL_FIELDS)
+)
 
 TorchResult = make_dataclass(
     "TorchResult",
     [(name, torch.Tensor) for name in RESULT_FIELDS]
+    + [(name, Any, None) for name in OPTIONAL_FIELDS]
     + [("options", ModelOptions, DEFAULT_OPTIONS), ("planform", str, "tear-drop")],
     frozen=True,
     namespace={
@@ -914,14 +918,23 @@ def evaluate_torch(
     missing = [name for name in RESULT_FIELDS if name not in values]
     if missing:
         raise RuntimeError(f"the torch backend does not compute Result fields {missing}")
+    if insect.min_wing_gap is not None:  # the search on numpy, the distance there on torch
+        place = clearance.gap_place(strokes.detach().cpu().double().numpy(), insect)
+        values["wing_gap"] = clearance.gap_at(strokes, place, insect, TORCH)
     return TorchResult(
-        **{name: values[name] for name in RESULT_FIELDS}, options=options, planform=insect.planform
+        **{name: values[name] for name in (*RESULT_FIELDS, *OPTIONAL_FIELDS) if name in values},
+        options=options,
+        planform=insect.planform,
     )
 
 
 def to_numpy_result(result: Any) -> Result:
     """The numpy :class:`Result` of a :class:`TorchResult` (detached, on the CPU)."""
-    arrays = {name: getattr(result, name).detach().cpu().numpy() for name in RESULT_FIELDS}
+    arrays = {
+        name: getattr(result, name).detach().cpu().numpy()
+        for name in (*RESULT_FIELDS, *OPTIONAL_FIELDS)
+        if getattr(result, name) is not None
+    }
     return Result(**arrays, options=result.options, planform=result.planform)
 
 

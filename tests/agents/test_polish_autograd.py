@@ -43,6 +43,14 @@ CASES = [
     ),
     (ACCELERATE_TASK, STROKES.ACCELERATE_POWER, {}, 0.97 * STROKES.ACCELERATE_FEASIBLE_ACTION),
     (ACCELERATE_TASK, 90.0, {"objective": "resultant"}, 0.97 * STROKES.ACCELERATE_FEASIBLE_ACTION),
+    # the wings' gap: autograd at the search's place held (the envelope theorem) against
+    # central differences of the whole search
+    (
+        LEVEL_TASK,
+        STROKES.LEVEL_SPEED,
+        {"insect": {"min_wing_gap": 1e-3}},
+        STROKES.LEVEL_FEASIBLE_ACTION,
+    ),
 ]
 
 
