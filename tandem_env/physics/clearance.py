@@ -32,11 +32,14 @@ from .stroke import N_PER_WING, validate_physical
 from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, select, stroke_loop
 
 #: The coarse grid :func:`wing_gap` starts from: instants per fore-wing cycle and span
-#: stations per wing; its local minima are then followed to the least distance (docs/model.md
-#: §5.8, *The wings meet*).
-GAP_GRID = (32, 9)
+#: stations per wing. At each instant its closest stations are followed to the surfaces'
+#: distance (:data:`GAP_SURFACE_STEP`), and the local minima over the instants to the least
+#: distance (docs/model.md §1.7).
+GAP_GRID = (64, 5)
 #: The coarse grid's instants whose local minima :func:`wing_gap` follows, the closest first.
 GAP_CANDIDATES = 3
+#: Where the coarse grid's search over the stations at each instant stops [-] (r/R).
+GAP_SURFACE_STEP = 1e-3
 #: Where the search for the least distance stops: its step in the time (a fraction of the
 #: fore-wing's cycle) and in r/R [-].
 GAP_STEP = 1e-8
@@ -156,12 +159,36 @@ def _frames(params, scales, tables, x):
     return fore, hind
 
 
+@njit(cache=True)
+def _surfaces(frames, tables, hind_root, start, step):
+    """The least distance [m] between the two wings' surfaces at one instant (their ``frames``)
+    and its stations (r̂_fore, r̂_hind): a compass search over the stations from ``start``,
+    along the axes and diagonals, the step halved down to :data:`GAP_SURFACE_STEP`."""
+    fore, hind = frames
+    point = start.copy()
+    best = _pair_gap(fore, hind, tables, hind_root, point[0], point[1])
+    while step > GAP_SURFACE_STEP:
+        moved = False
+        for d in range(SURFACE_DIRECTIONS.shape[0]):
+            trial_fore = min(max(point[0] + SURFACE_DIRECTIONS[d, 0] * step, 0.0), 1.0)
+            trial_hind = min(max(point[1] + SURFACE_DIRECTIONS[d, 1] * step, 0.0), 1.0)
+            value = _pair_gap(fore, hind, tables, hind_root, trial_fore, trial_hind)
+            if value < best:
+                best, point[0], point[1], moved = value, trial_fore, trial_hind, True
+                break
+        if not moved:
+            step *= 0.5
+    return best, point[0], point[1]
+
+
 #: The compass search's directions (x, r̂_fore, r̂_hind): the axes and the diagonals of each
 #: pair of them, either way (a valley across the axes stalls a search along them alone).
 DIRECTIONS = (
     np.array([d for d in np.ndindex(3, 3, 3) if sum(1 for v in d if v != 1) in (1, 2)], dtype=float)
     - 1.0
 )
+#: The directions of :func:`_surfaces`: those of :data:`DIRECTIONS` at one instant.
+SURFACE_DIRECTIONS = DIRECTIONS[DIRECTIONS[:, 0] == 0.0, 1:]
 
 
 @njit(cache=True)
@@ -205,9 +232,10 @@ def _follow(params, scales, tables, hind_root, start, step_x, step_rho):
 
 @stroke_loop()
 def _search(params, tables, hind_root, n_time, n_span, out):
-    """The least distance's place (x, r̂_fore, r̂_hind) of each stroke, into ``out`` (B, 3):
-    the coarse grid's instants, their :data:`GAP_CANDIDATES` closest local minima followed by
-    :func:`_follow`, the closest kept."""
+    """The least distance's place (x, r̂_fore, r̂_hind) of each stroke, into ``out`` (B, 3): at
+    each of the coarse grid's instants the surfaces' distance (:func:`_surfaces` from the grid's
+    closest stations), its :data:`GAP_CANDIDATES` closest local minima over the instants
+    followed by :func:`_follow`, the closest kept."""
     for b in prange(params.shape[0]):
         stroke = params[b]
         scales = np.empty((2, 2))
@@ -239,6 +267,11 @@ def _search(params, tables, hind_root, n_time, n_span, out):
                     if value < nearest[k]:
                         nearest[k] = value
                         where[k, 0], where[k, 1] = i / (n_span - 1), j / (n_span - 1)
+            # the stations between the grid's: the two surfaces' distance at this instant (a
+            # narrow valley between stations, where two chords nearly cross, is found here)
+            nearest[k], where[k, 0], where[k, 1] = _surfaces(
+                frames, tables, hind_root, where[k], 1.0 / (n_span - 1)
+            )
         # the local minima over the instants, the closest first
         minimum = np.zeros(n_time + 1, dtype=np.bool_)
         for k in range(n_time + 1):
@@ -305,12 +338,12 @@ def gap_at(
 def wing_gap(strokes: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray:
     """The least distance [m] between the fore- and hind-wing's surfaces over a cycle, (B,), of
     (B, 28) or (28,) physical strokes (Table 4 units), over the instants 0 ≤ t ≤ 1/f_fore: the
-    coarse grid :data:`GAP_GRID`, its closest local minima followed
+    surfaces' distance at the instants of :data:`GAP_GRID`, its closest local minima followed
     to a step of :data:`GAP_STEP` (:func:`gap_place`), and the distance there (:func:`gap_at`).
     A continuous search, so smooth in the stroke where the closest place moves smoothly; zero
     where the wings cross. :func:`wing_clearance` is the same on a fixed grid (what this is
-    tested against), at about 40 times the cost: the measure a task's constraint on the
-    wings' distance needs (docs/model.md §5.8, *The wings meet*)."""
+    tested against), at about 12 times the cost: the measure a task's constraint on the
+    wings' distance needs (docs/model.md §1.7, §5.8 *The wings meet*)."""
     if not isinstance(insect, Dragonfly):
         raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
     physical = validate_physical(strokes, bounds=insect.stroke_bounds)

@@ -5,6 +5,7 @@ tests/physics/test_torch_backend.py's (every slipstream value is in its option s
 
 from __future__ import annotations
 
+import time
 import warnings
 from dataclasses import replace
 from functools import cache
@@ -252,7 +253,12 @@ def test_an_error_in_one_chunk_stops_the_others(monkeypatch):
     started = []
 
     def failing(*args, **kwargs):
+        # the first chunk fails at once, the others only after a second: on a loaded machine a
+        # chunk that failed at once too could let the workers start all 40 before the caller
+        # saw the first error (the test then failed by timing, not by the code)
         started.append(1)
+        if len(started) > 1:
+            time.sleep(1.0)
         raise KeyboardInterrupt
 
     monkeypatch.setattr(interaction, "vortex_reading", failing)
