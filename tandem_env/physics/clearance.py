@@ -108,7 +108,7 @@ def _planform_table(wing: Wing) -> np.ndarray:
 def _frame(params, scales, length, tau):
     """The tip's axis point [m] and the unit chord [-] of a wing with parameters ``params``
     (14, Hz/rad/-) and waveform ``scales`` (sweep, pitch) at its phase ``tau`` [rad], as a
-    6-tuple: a station's ends follow from it (:func:`_ends`)."""
+    6-tuple: a station's ends follow from it (:func:`_pair_gap`)."""
     omega = 2.0 * math.pi * params[0]
     k = min(params[10], MAX_SWEEP_SHAPE)
     phi = weaving_scaled(tau, omega, scales[0], k, params[4], params[7])[0]
