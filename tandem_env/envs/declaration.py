@@ -245,8 +245,7 @@ def _gap_set(config: Any) -> bool:
 WING_GAP = Constraint(
     "wing_gap_violation", "gap ≥ min_wing_gap", "-", margin=_gap_margin, applies=_gap_set
 )
-#: What every flight task asks of a stroke besides its own constraints.
-FLIGHT_LIMITS = (POWER_CAP, WING_GAP)
+FLIGHT_LIMITS = (POWER_CAP, WING_GAP)  # every flight task's, besides its own constraints
 
 
 @dataclass(frozen=True)

@@ -246,27 +246,14 @@ def _search(params, tables, hind_root, n_time, n_span, out):
         # different frequencies the cycle's end is not its start
         nearest = np.full(n_time + 1, np.inf)
         where = np.zeros((n_time + 1, 2))
-        ends = np.empty((2, n_span, 6))  # each station's leading end and chord [m]
         for k in range(n_time + 1):
             frames = _frames(stroke, scales, tables, k / n_time)
-            for w in range(2):
-                for i in range(n_span):
-                    rho = i / (n_span - 1)
-                    chord = _chord(tables[w], rho)
-                    for m in range(3):
-                        ends[w, i, m] = rho * frames[w][m] - 0.5 * chord * frames[w][3 + m]
-                        ends[w, i, 3 + m] = chord * frames[w][3 + m]
-            ends[1, :, :3] += hind_root
             for i in range(n_span):
-                p = ends[0, i]
                 for j in range(n_span):
-                    q = ends[1, j]
-                    value = segment_gap(
-                        p[0], p[1], p[2], p[3], p[4], p[5], q[0], q[1], q[2], q[3], q[4], q[5]
-                    )
+                    rho_fore, rho_hind = i / (n_span - 1), j / (n_span - 1)
+                    value = _pair_gap(*frames, tables, hind_root, rho_fore, rho_hind)
                     if value < nearest[k]:
-                        nearest[k] = value
-                        where[k, 0], where[k, 1] = i / (n_span - 1), j / (n_span - 1)
+                        nearest[k], where[k, 0], where[k, 1] = value, rho_fore, rho_hind
             # the stations between the grid's: the two surfaces' distance at this instant (a
             # narrow valley between stations, where two chords nearly cross, is found here)
             nearest[k], where[k, 0], where[k, 1] = _surfaces(
@@ -301,7 +288,7 @@ def gap_place(physical: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray
     for w, wing in enumerate((insect.fore, insect.hind)):
         table = _planform_table(wing)
         tables[w, : len(table)] = table
-    hind_root = np.array([-insect.root_spacing, 0.0, -insect.root_drop])
+    hind_root = np.array(_root(insect))
     out = np.empty((physical.shape[0], 3))
     _search(len(out), np.ascontiguousarray(params), tables, hind_root, *GAP_GRID, out)
     return out
@@ -316,23 +303,29 @@ def gap_at(
     place held is the whole derivative: the envelope theorem)."""
     fore = wing_params_radians(physical[:, :N_PER_WING], xp)
     hind = wing_params_radians(physical[:, N_PER_WING:], xp)
-    like = fore[:, :1]
-    x = xp.constant_like(place[:, :1], like)
-    ends = []
-    for params, wing, rho, ratio in (
-        (fore, insect.fore, place[:, 1:2], None),
-        (hind, insect.hind, place[:, 2:3], hind[:, :1] / fore[:, :1]),
-    ):
-        tau = 2.0 * math.pi * x if ratio is None else 2.0 * math.pi * x * ratio
-        angles = angles_at(params, tau, xp)
-        r = xp.constant_like(rho * wing.length, like)
-        c = xp.constant_like(wing.chord(rho), like)
-        ends.append(
-            on_namespace(chord_ends, xp)(angles[0], angles[3], angles[6], params[:, 13:14], r, c)
-        )
-    (p, q), root = ends, (-insect.root_spacing, 0.0, -insect.root_drop)
-    gap = on_namespace(segment_gap, xp)(*p[:3], *p[3:], *(q[i] + root[i] for i in range(3)), *q[3:])
-    return gap[:, 0]
+    x = 2.0 * math.pi * xp.constant_like(place[:, :1], fore[:, :1])  # the fore-wing's phase
+    p = _station_ends(fore, x, place[:, 1:2], insect.fore, (0.0, 0.0, 0.0), xp)
+    q = _station_ends(
+        hind, x * (hind[:, :1] / fore[:, :1]), place[:, 2:3], insect.hind, _root(insect), xp
+    )
+    return on_namespace(segment_gap, xp)(*p, *q)[:, 0]
+
+
+def _root(insect: Dragonfly) -> tuple[float, float, float]:
+    """The hind-wing's root relative to the fore-wing's, in earth axes [m] (§1.7)."""
+    return (-insect.root_spacing, 0.0, -insect.root_drop)
+
+
+def _station_ends(
+    params: Any, tau: Any, rho: np.ndarray, wing: Wing, root: tuple[float, ...], xp: ArrayNamespace
+) -> tuple[Any, ...]:
+    """:func:`chord_ends` of one wing's (B, 14) parameters [Hz, rad, -] at its phases ``tau``
+    [rad] ((B, n) or (1, n)) and span stations r/R ``rho`` (broadcast with them), the leading
+    ends moved to the root at ``root`` [m]."""
+    angles = angles_at(params, tau, xp)
+    r, c = (xp.constant_like(v, params[:, :1]) for v in (rho * wing.length, wing.chord(rho)))
+    ends = on_namespace(chord_ends, xp)(angles[0], angles[3], angles[6], params[:, 13:14], r, c)
+    return (*(end + offset for end, offset in zip(ends[:3], root, strict=True)), *ends[3:])
 
 
 def wing_gap(strokes: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray:
@@ -375,21 +368,16 @@ def wing_clearance(
     if not isinstance(insect, Dragonfly):
         raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
     physical = validate_physical(strokes, bounds=insect.stroke_bounds)
-    fraction = np.linspace(0.0, 1.0, n_span)
-    hind_root = (-insect.root_spacing, 0.0, -insect.root_drop)
+    fraction = np.linspace(0.0, 1.0, n_span)[:, None]  # (n_span, 1): each station's row
+    roots = ((0.0, 0.0, 0.0), _root(insect))
     out = np.empty(physical.shape[0])
-    ends_of, gap_of = on_namespace(chord_ends, NUMPY), on_namespace(segment_gap, NUMPY)
     for b, stroke in enumerate(physical):
-        params = [
-            wing_params_radians(stroke[None, w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)
-        ]
-        time = np.arange(n_time)[:, None] / (n_time * params[0][0, 0])
-        ends = []
-        for p, wing in zip(params, (insect.fore, insect.hind), strict=True):
-            angles = [a.T for a in angles_at(p, 2.0 * np.pi * p[0, 0] * time.T)]  # (n_time, 1)
-            r, c = fraction * wing.length, wing.chord(fraction)
-            ends.append(ends_of(angles[0], angles[3], angles[6], p[0, 13], r, c))
-        fore = [e[:, :, None] for e in ends[0]]  # (n_time, n_span, 1)
-        hind = [e[:, None, :] + (hind_root[i] if i < 3 else 0.0) for i, e in enumerate(ends[1])]
-        out[b] = gap_of(*fore, *hind).min()
+        time = np.arange(n_time)[None] / (n_time * stroke[0])  # (1, n_time) [s]
+        ends = []  # each wing's, (n_span, n_time)
+        for w, wing in enumerate((insect.fore, insect.hind)):
+            params = wing_params_radians(stroke[None, w * N_PER_WING : (w + 1) * N_PER_WING])
+            tau = 2.0 * np.pi * params[0, 0] * time
+            ends.append(_station_ends(params, tau, fraction, wing, roots[w], NUMPY))
+        gap_of = on_namespace(segment_gap, NUMPY)
+        out[b] = gap_of(*(e[:, None] for e in ends[0]), *(e[None] for e in ends[1])).min()
     return out
