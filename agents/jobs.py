@@ -180,12 +180,11 @@ class Job:
     def key_at(self, version: str, model: int | None) -> str:
         """:attr:`key` as tandem_env ``version`` computed it with model revision ``model``
         (None: a record made before the key held the model's revision); a job under the vortex
-        reading holds :data:`~tandem_env.physics.VORTEX_REVISION` too."""
+        reading or whose insect sets a gap holds their revisions too (``key_revisions``)."""
         payload = {**self.configuration(), "tandem_env": version, "record": SCHEMA}
         if model is not None:
-            payload["model"] = model
-            if self.slipstream() == "vortex":  # that reading's own revision besides
-                payload["vortex"] = tandem_env.physics.VORTEX_REVISION
+            gap = (self.env("insect") or {}).get("min_wing_gap") is not None
+            payload |= {"model": model, **tandem_env.physics.key_revisions(self.slipstream(), gap)}
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:20]
 
     def slipstream(self) -> str:

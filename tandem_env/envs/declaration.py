@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from functools import partial
 from itertools import pairwise
 from types import MappingProxyType
 from typing import Any, Literal, get_args, get_origin, get_type_hints
@@ -157,10 +158,7 @@ class TaskObjectives:
         metrics = self.metrics
         named = isinstance(metrics, Mapping) and all(isinstance(k, str) and k for k in metrics)
         if not (named and metrics):
-            allowed = (
-                "a non-empty mapping of objective choice -> info metric, e.g. {'efficiency': "
-                "'efficiency'}"
-            )
+            allowed = "a non-empty mapping of objective choice -> info metric (a Result field)"
             raise refusal(f"{owner}.metrics", self.metrics, allowed)
         for choice, metric in self.metrics.items():
             _identifier(f"{owner}.metrics[{choice!r}]", "metric", metric)
@@ -233,19 +231,22 @@ POWER_CAP = Constraint(
 )
 
 
-def _gap_margin(result: Result, config: Any) -> Any:
-    return result.wing_gap / config.insect.min_wing_gap - 1.0
+def _gap_margin(result: Result, config: Any, distance: str = "wing_gap") -> Any:
+    return getattr(result, distance) / config.insect.min_wing_gap - 1.0
 
 
 def _gap_set(config: Any) -> bool:
     return config.insect.min_wing_gap is not None
 
 
-#: The wings' least distance, where the insect sets one (``min_wing_gap`` [m]; docs/envs.md).
+#: The wings' gap where they come closest, and where next (a margin at each: docs/envs.md).
 WING_GAP = Constraint(
     "wing_gap_violation", "gap ≥ min_wing_gap", "-", margin=_gap_margin, applies=_gap_set
 )
-FLIGHT_LIMITS = (POWER_CAP, WING_GAP)  # every flight task's, besides its own constraints
+NEXT_WING_GAP = replace(
+    WING_GAP, name="wing_gap_next_violation", margin=partial(_gap_margin, distance="wing_gap_next")
+)
+FLIGHT_LIMITS = (POWER_CAP, WING_GAP, NEXT_WING_GAP)  # every flight task's, besides its own
 
 
 @dataclass(frozen=True)

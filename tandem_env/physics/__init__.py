@@ -42,6 +42,20 @@ MODEL_REVISION = 4
 #: through a periodic cubic spline, where both were interpolated linearly between samples
 #: whose phases move with the stroke (kinks in every result, on which the polish came to rest).
 VORTEX_REVISION = 8
+#: The wings' gap's revision (``clearance.gaps`` and the tasks' constraints on it), in the key
+#: of a record made for an insect that sets ``min_wing_gap``: bump it in a change that moves
+#: those records only. 1: one margin, at the least distance; 2: a second at the next place
+#: the wings come close (an optimum on the gap at two places can be certified).
+GAP_REVISION = 2
+
+
+def key_revisions(slipstream: str, gap: bool) -> dict[str, int]:
+    """The revisions a record's key holds besides MODEL_REVISION: the vortex reading's under it
+    (``slipstream``), the gap's where the insect sets one (``gap``)."""
+    revisions = {"vortex": VORTEX_REVISION} if slipstream == "vortex" else {}
+    return revisions | ({"gap": GAP_REVISION} if gap else {})
+
+
 from .coefficients import (
     COEFFICIENT_MODELS,
     PaperCoefficients,
@@ -95,6 +109,7 @@ __all__ = [
     "BOUND_TOLERANCE",
     "COEFFICIENT_MODELS",
     "DRAGONFLY",
+    "GAP_REVISION",
     "LOWER",
     "MAX_FLIGHT_PATH_ANGLE",
     "METRIC_NAMES",

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 from .checks import is_integer
-from .insect import DRAGONFLY, MAX_EDGE_COEFFICIENTS, Dragonfly, Wing
+from .insect import DRAGONFLY, MAX_EDGE_COEFFICIENTS, MAX_WING_GAP, Dragonfly, Wing
 from .kinematics import (
     MAX_SWEEP_SHAPE,
     angles_at,
@@ -38,6 +38,10 @@ from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, select, stroke
 GAP_GRID = (64, 5)
 #: The coarse grid's instants whose local minima :func:`wing_gap` follows, the closest first.
 GAP_CANDIDATES = 3
+#: Two places found by the search are one where they differ by less than this in each of
+#: (x, r̂_fore, r̂_hind) [-], x the fraction of the fore-wing's cycle (modulo 1 where both wings
+#: beat at one frequency, so that the cycle's end is its start).
+GAP_SAME_PLACE = 1e-3
 #: Where the coarse grid's search over the stations at each instant stops [-] (r/R).
 GAP_SURFACE_STEP = 1e-3
 #: Where the search for the least distance stops: its step in the time (a fraction of the
@@ -192,18 +196,19 @@ SURFACE_DIRECTIONS = DIRECTIONS[DIRECTIONS[:, 0] == 0.0, 1:]
 
 
 @njit(cache=True)
-def _follow(params, scales, tables, hind_root, start, step_x, step_rho):
+def _follow(params, scales, tables, hind_root, start, step_x, step_rho, periodic):
     """A compass search from ``start`` (x, r̂_fore, r̂_hind) to a local least distance: after a
     scan along the time, a step along each of :data:`DIRECTIONS`, the first that comes closer
-    taken; the steps halved where none does, down to :data:`GAP_STEP` (each coordinate held in
-    [0, 1]). Returns (distance [m], x, r̂_fore, r̂_hind)."""
+    taken; the steps halved where none does, down to :data:`GAP_STEP` (r̂ held in [0, 1], x
+    too unless ``periodic``, both wings beating at one frequency: then x is taken modulo 1).
+    Returns (distance [m], x, r̂_fore, r̂_hind)."""
     point = start.copy()
     fore, hind = _frames(params, scales, tables, point[0])
     best = _pair_gap(fore, hind, tables, hind_root, point[1], point[2])
     # first along the time at the start's stations, finer than the coarse grid (two minima of
     # a root chord's distance can lie within one of its steps)
     for m in range(-16, 17):
-        x = min(max(start[0] + m * step_x / 16.0, 0.0), 1.0)
+        x = _instant(start[0] + m * step_x / 16.0, periodic)
         trial_fore, trial_hind = _frames(params, scales, tables, x)
         value = _pair_gap(trial_fore, trial_hind, tables, hind_root, point[1], point[2])
         if value < best:
@@ -215,7 +220,8 @@ def _follow(params, scales, tables, hind_root, start, step_x, step_rho):
         for n in range(DIRECTIONS.shape[0]):
             d = (last + n) % DIRECTIONS.shape[0]
             trial = point + DIRECTIONS[d] * steps
-            for i in range(3):
+            trial[0] = _instant(trial[0], periodic)
+            for i in range(1, 3):
                 trial[i] = min(max(trial[i], 0.0), 1.0)
             trial_fore, trial_hind = fore, hind  # the frames move only with the time
             if trial[0] != point[0]:
@@ -230,12 +236,19 @@ def _follow(params, scales, tables, hind_root, start, step_x, step_rho):
     return best, point[0], point[1], point[2]
 
 
+@njit(cache=True)
+def _instant(x, periodic):
+    """The fraction ``x`` of the fore-wing's cycle held in [0, 1], or modulo 1 if ``periodic``."""
+    return x - math.floor(x) if periodic else min(max(x, 0.0), 1.0)
+
+
 @stroke_loop()
 def _search(params, tables, hind_root, n_time, n_span, out):
-    """The least distance's place (x, r̂_fore, r̂_hind) of each stroke, into ``out`` (B, 3): at
-    each of the coarse grid's instants the surfaces' distance (:func:`_surfaces` from the grid's
-    closest stations), its :data:`GAP_CANDIDATES` closest local minima over the instants
-    followed by :func:`_follow`, the closest kept."""
+    """The places (x, r̂_fore, r̂_hind) of each stroke's two closest local least distances,
+    into ``out`` (B, 2, 3): at each of the coarse grid's instants the surfaces' distance
+    (:func:`_surfaces` from the grid's closest stations), its :data:`GAP_CANDIDATES` closest
+    local minima over the instants followed by :func:`_follow`; the closest place first, then
+    the closest of the others apart from it (:data:`GAP_SAME_PLACE`), NaN where none is."""
     for b in prange(params.shape[0]):
         stroke = params[b]
         scales = np.empty((2, 2))
@@ -243,10 +256,12 @@ def _search(params, tables, hind_root, n_time, n_span, out):
             scales[w, 0] = stroke[w, 1] / math.asin(min(stroke[w, 10], MAX_SWEEP_SHAPE))
             scales[w, 1] = stroke[w, 3] / math.tanh(stroke[w, 12])
         # the instants x = k/n_time, k = 0 … n_time, both ends: where the wings beat at
-        # different frequencies the cycle's end is not its start
-        nearest = np.full(n_time + 1, np.inf)
-        where = np.zeros((n_time + 1, 2))
-        for k in range(n_time + 1):
+        # different frequencies the cycle's end is not its start (at one, it is: k < n_time)
+        periodic = stroke[0, 0] == stroke[1, 0]
+        n_instants = n_time if periodic else n_time + 1
+        nearest = np.full(n_instants, np.inf)
+        where = np.zeros((n_instants, 2))
+        for k in range(n_instants):
             frames = _frames(stroke, scales, tables, k / n_time)
             for i in range(n_span):
                 for j in range(n_span):
@@ -259,27 +274,40 @@ def _search(params, tables, hind_root, n_time, n_span, out):
             nearest[k], where[k, 0], where[k, 1] = _surfaces(
                 frames, tables, hind_root, where[k], 1.0 / (n_span - 1)
             )
-        # the local minima over the instants, the closest first
-        minimum = np.zeros(n_time + 1, dtype=np.bool_)
-        for k in range(n_time + 1):
-            below = k == 0 or nearest[k] <= nearest[k - 1]
-            minimum[k] = below and (k == n_time or nearest[k] <= nearest[k + 1])
+        # the local minima over the instants (around the cycle where periodic), the closest first
+        minimum = np.zeros(n_instants, dtype=np.bool_)
+        for k in range(n_instants):
+            before, after = (k - 1) % n_instants, (k + 1) % n_instants
+            below = (k == 0 and not periodic) or nearest[k] <= nearest[before]
+            minimum[k] = below and ((after == 0 and not periodic) or nearest[k] <= nearest[after])
         order = np.argsort(np.where(minimum, nearest, np.inf))
-        best = np.inf
-        for k in order[: min(GAP_CANDIDATES, minimum.sum())]:
+        count = min(GAP_CANDIDATES, minimum.sum())
+        found = np.empty((count, 4))  # (distance, x, r̂_fore, r̂_hind) of each candidate
+        for n in range(count):
+            k = order[n]
             start = np.array([k / n_time, where[k, 0], where[k, 1]])
-            found = _follow(
-                stroke, scales, tables, hind_root, start, 1.0 / n_time, 1.0 / (n_span - 1)
+            found[n] = _follow(
+                stroke, scales, tables, hind_root, start, 1.0 / n_time, 1.0 / (n_span - 1), periodic
             )
-            if found[0] < best:
-                best = found[0]
-                out[b, 0], out[b, 1], out[b, 2] = found[1], found[2], found[3]
+        ranked = np.argsort(found[:, 0], kind="mergesort")  # equal distances: the grid's order
+        first = found[ranked[0], 1:]
+        out[b, 0] = first
+        out[b, 1] = np.nan
+        for n in ranked[1:]:
+            apart = np.abs(found[n, 1:] - first)
+            if periodic:  # x modulo the cycle
+                apart[0] = min(apart[0], 1.0 - apart[0])
+            if apart.max() >= GAP_SAME_PLACE:
+                out[b, 1] = found[n, 1:]
+                break
 
 
-def gap_place(physical: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray:
-    """(B, 3) where the fore- and hind-wing come closest over a cycle: the fraction of the
-    fore-wing's cycle [-] and the span stations r/R of the fore- and hind-wing [-], of (B, 28)
-    validated physical strokes (Table 4 units): the compiled search of :func:`wing_gap`."""
+def gap_places(physical: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray:
+    """(B, 2, 3) where the fore- and hind-wing come closest over a cycle, of (B, 28) validated
+    physical strokes (Table 4 units): the fraction of the fore-wing's cycle [-] and the span
+    stations r/R of the fore- and hind-wing [-] of the least distance, then of the next
+    closest local minimum of the distance elsewhere (NaN where the search found none): the
+    compiled search of :func:`wing_gap`."""
     params = np.stack(
         [wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)],
         axis=1,
@@ -289,16 +317,32 @@ def gap_place(physical: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray
         table = _planform_table(wing)
         tables[w, : len(table)] = table
     hind_root = np.array(_root(insect))
-    out = np.empty((physical.shape[0], 3))
+    out = np.empty((physical.shape[0], 2, 3))
     _search(len(out), np.ascontiguousarray(params), tables, hind_root, *GAP_GRID, out)
     return out
+
+
+def gaps(
+    physical: Any, insect: Dragonfly = DRAGONFLY, xp: ArrayNamespace = NUMPY
+) -> tuple[Any, Any]:
+    """``Result.wing_gap`` and ``Result.wing_gap_next`` [m] of physical strokes (B, 28) in the
+    array namespace ``xp`` (on torch differentiable; the places searched on numpy): the
+    distance at each of :func:`gap_places`' two places, the second :data:`MAX_WING_GAP` above
+    the first where the search found one place only (so that a constraint on it never acts)."""
+    searched = physical if xp is NUMPY else physical.detach().cpu().double().numpy()
+    places = gap_places(searched, insect)
+    alone = np.isnan(places[:, 1, 0])
+    second = np.where(alone[:, None], places[:, 0], places[:, 1])
+    gap = gap_at(physical, places[:, 0], insect, xp)
+    apart = gap_at(physical, second, insect, xp)
+    return gap, apart + xp.constant_like(np.where(alone, MAX_WING_GAP, 0.0), apart)
 
 
 def gap_at(
     physical: Any, place: np.ndarray, insect: Dragonfly = DRAGONFLY, xp: ArrayNamespace = NUMPY
 ) -> Any:
     """(B,) distance [m] between the fore-wing's chord and the hind-wing's at ``place`` (B, 3)
-    (:func:`gap_place`) of physical strokes (B, 28) in the array namespace ``xp``: on torch,
+    (one of :func:`gap_places`) of physical strokes (B, 28) in the array namespace ``xp``: on torch,
     differentiable with respect to the strokes (at a least distance, its derivative with the
     place held is the whole derivative: the envelope theorem)."""
     fore = wing_params_radians(physical[:, :N_PER_WING], xp)
@@ -332,7 +376,7 @@ def wing_gap(strokes: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray:
     """The least distance [m] between the fore- and hind-wing's surfaces over a cycle, (B,), of
     (B, 28) or (28,) physical strokes (Table 4 units), over the instants 0 ≤ t ≤ 1/f_fore: the
     surfaces' distance at the instants of :data:`GAP_GRID`, its closest local minima followed
-    to a step of :data:`GAP_STEP` (:func:`gap_place`), and the distance there (:func:`gap_at`).
+    to a step of :data:`GAP_STEP` (:func:`gap_places`), and the distance there (:func:`gap_at`).
     A continuous search, so smooth in the stroke where the closest place moves smoothly; zero
     where the wings cross. :func:`wing_clearance` is the same on a fixed grid (what this is
     tested against), at about 12 times the cost: the measure a task's constraint on the
@@ -340,7 +384,7 @@ def wing_gap(strokes: np.ndarray, insect: Dragonfly = DRAGONFLY) -> np.ndarray:
     if not isinstance(insect, Dragonfly):
         raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
     physical = validate_physical(strokes, bounds=insect.stroke_bounds)
-    return gap_at(physical, gap_place(physical, insect), insect)
+    return gap_at(physical, gap_places(physical, insect)[:, 0], insect)
 
 
 def wing_clearance(

@@ -170,6 +170,11 @@ class Result:
     """The least distance between the fore- and hind-wing surfaces over the cycle [m]
     (:func:`~tandem_env.physics.clearance.wing_gap`), computed where the insect sets
     ``min_wing_gap`` (the tasks' constraint on it); None otherwise, and then in no dict."""
+    wing_gap_next: np.ndarray | None = None
+    """The distance at the next place where the wings come close [m]: the closest other local
+    minimum of their distance over the cycle (``clearance.gaps``; ``wing_gap`` + 1 m where
+    there is none), so that a constraint holds at each place the wings may touch; computed
+    with ``wing_gap``."""
     options: ModelOptions = DEFAULT_OPTIONS
     """The options this result was computed with (thrust split, power convention, …)."""
     planform: str = "tear-drop"
@@ -206,8 +211,9 @@ class Result:
 
 
 _METADATA = ("options", "planform")
-#: The fields computed only where asked (None otherwise): the wings' least distance.
-OPTIONAL_FIELDS = ("wing_gap",)
+#: The fields computed only where asked (None otherwise): the wings' least distance, and their
+#: distance at the next place they come close.
+OPTIONAL_FIELDS = ("wing_gap", "wing_gap_next")
 
 # --- the flight condition's limits (the one home: envs, history and studies use these) --------
 #: Flight speeds V the model accepts [m/s]: forward flight (V >= 0), up to ten times the
@@ -708,6 +714,5 @@ def evaluate_numba(
     result = _performance(out, v, gamma, p_avail, insect, options)
     if insect.min_wing_gap is None:
         return result
-    return replace(
-        result, wing_gap=clearance.gap_at(physical, clearance.gap_place(physical, insect), insect)
-    )
+    gaps = clearance.gaps(physical, insect)
+    return replace(result, **dict(zip(OPTIONAL_FIELDS, gaps, strict=True)))

@@ -919,8 +919,7 @@ def evaluate_torch(
     if missing:
         raise RuntimeError(f"the torch backend does not compute Result fields {missing}")
     if insect.min_wing_gap is not None:  # the search on numpy, the distance there on torch
-        place = clearance.gap_place(strokes.detach().cpu().double().numpy(), insect)
-        values["wing_gap"] = clearance.gap_at(strokes, place, insect, TORCH)
+        values |= zip(OPTIONAL_FIELDS, clearance.gaps(strokes, insect, TORCH), strict=True)
     return TorchResult(
         **{name: values[name] for name in (*RESULT_FIELDS, *OPTIONAL_FIELDS) if name in values},
         options=options,

@@ -77,6 +77,16 @@ def test_the_vortex_readings_own_revision_moves_its_records_keys_only(
     assert (mean.key, JOB.key) == (before[mean], before[JOB])
 
 
+def test_the_gaps_revision_moves_the_keys_of_records_with_a_gap_only(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # a change of the gap's search or constraints leaves the records of flyers without a gap
+    gapped = Job("pso", "level", 2.0, 16, 0, env_kwargs={**SMALL, "insect": {"min_wing_gap": 1e-3}})
+    before = {job: job.key for job in (gapped, JOB)}
+    monkeypatch.setattr(tandem_env.physics, "GAP_REVISION", tandem_env.physics.GAP_REVISION + 1)
+    assert gapped.key != before[gapped] and JOB.key == before[JOB]
+
+
 def test_a_record_from_before_keys_held_the_revision_is_not_served(
     tmp_path: Path, record_cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -283,4 +283,9 @@ def test_info_reports_the_issue_keys() -> None:
         "stroke",
     ):
         assert key in info, key
-    assert set(info) >= set(te.Result.__dataclass_fields__) - {"options", "planform", "wing_gap"}
+    assert set(info) >= set(te.Result.__dataclass_fields__) - {
+        "options",
+        "planform",
+        "wing_gap",
+        "wing_gap_next",
+    }

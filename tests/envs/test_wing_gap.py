@@ -28,7 +28,9 @@ def test_a_flyer_without_a_gap_has_no_such_constraint(env_id):
     env = gym.make(env_id, **SMALL)
     env.reset(seed=0)
     info = env.step(env.action_space.sample())[4]
-    assert "wing_gap" not in info and "wing_gap_violation" not in info
+    assert not {"wing_gap", "wing_gap_violation", "wing_gap_next", "wing_gap_next_violation"} & set(
+        info
+    )
     assert "min_wing_gap" not in to_jsonable(te.DRAGONFLY)  # the JSON a fingerprint hashes
     env.close()
 
@@ -41,22 +43,26 @@ def test_a_gap_is_another_problem_with_its_own_reference():
 
 
 def test_the_gap_is_scored_from_the_models_distance():
-    """The margin is gap / min_wing_gap − 1, the violation its negative part; strokes whose
-    wings come within 1 mm are infeasible whatever else they do, the others keep their
-    other constraints' verdict."""
+    """The margins are gap / min_wing_gap − 1 at the least distance and at the next place the
+    wings come close, each violation its negative part; strokes whose wings come within 1 mm
+    are infeasible whatever else they do, the others keep their other constraints' verdict."""
     problem = gym.make(LEVEL_FLIGHT_ID, insect=LEVEL_ROOTS, **SMALL).unwrapped.problem()
-    assert problem.constraint_names[-1] == "wing_gap_violation"
+    assert problem.constraint_names[-2:] == ("wing_gap_violation", "wing_gap_next_violation")
     actions = _actions(64, seed=2)
     found = problem.evaluate(actions, 1.0)
-    gap = found.result.wing_gap
+    gap, next_gap = found.result.wing_gap, found.result.wing_gap_next
     physical = te.normalised_to_physical(actions, problem.config.insect.stroke_bounds)
     np.testing.assert_array_equal(gap, wing_gap(physical, problem.config.insect))
-    np.testing.assert_allclose(found.margins[:, -1], gap / 1e-3 - 1.0, rtol=1e-12)
+    np.testing.assert_allclose(found.margins[:, -2], gap / 1e-3 - 1.0, rtol=1e-12)
+    np.testing.assert_allclose(found.margins[:, -1], next_gap / 1e-3 - 1.0, rtol=1e-12)
+    assert np.all(next_gap >= gap) and ((next_gap < 1e-3) & (gap < 1e-3)).any()
     close = gap < 1e-3
     assert 0 < close.sum() < len(close) and (gap < 1e-9).any()  # some touch, some cross
     assert not found.feasible[close].any()
     others = problem.declaration.score(found.result, problem.config).violations
     assert np.array_equal(others["wing_gap_violation"], np.maximum(0.0, 1.0 - gap / 1e-3))
+    touching = np.maximum(0.0, 1.0 - next_gap / 1e-3)
+    assert np.array_equal(others["wing_gap_next_violation"], touching)
     apart = gym.make(LEVEL_FLIGHT_ID, insect={"root_drop": 0.0}, **SMALL).unwrapped.problem()
     np.testing.assert_array_equal(
         found.feasible[~close], apart.evaluate(actions, 1.0).feasible[~close]
