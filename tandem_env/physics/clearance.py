@@ -342,9 +342,9 @@ def gap_at(
     physical: Any, place: np.ndarray, insect: Dragonfly = DRAGONFLY, xp: ArrayNamespace = NUMPY
 ) -> Any:
     """(B,) distance [m] between the fore-wing's chord and the hind-wing's at ``place`` (B, 3)
-    (one of :func:`gap_places`) of physical strokes (B, 28) in the array namespace ``xp``: on torch,
-    differentiable with respect to the strokes (at a least distance, its derivative with the
-    place held is the whole derivative: the envelope theorem)."""
+    (one of :func:`gap_places`) of physical strokes (B, 28) in the array namespace ``xp``: on
+    torch, differentiable with respect to the strokes (at a least distance, its derivative
+    with the place held is the whole derivative: the envelope theorem)."""
     fore = wing_params_radians(physical[:, :N_PER_WING], xp)
     hind = wing_params_radians(physical[:, N_PER_WING:], xp)
     x = 2.0 * math.pi * xp.constant_like(place[:, :1], fore[:, :1])  # the fore-wing's phase
