@@ -332,27 +332,28 @@ def gaps(
     searched = physical if xp is NUMPY else physical.detach().cpu().double().numpy()
     places = gap_places(searched, insect)
     alone = np.isnan(places[:, 1, 0])
-    second = np.where(alone[:, None], places[:, 0], places[:, 1])
-    gap = gap_at(physical, places[:, 0], insect, xp)
-    apart = gap_at(physical, second, insect, xp)
-    return gap, apart + xp.constant_like(np.where(alone, MAX_WING_GAP, 0.0), apart)
+    places[alone, 1] = places[alone, 0]
+    both = gap_at(physical, places, insect, xp)  # (B, 2)
+    return both[:, 0], both[:, 1] + xp.constant_like(np.where(alone, MAX_WING_GAP, 0.0), both)
 
 
 def gap_at(
     physical: Any, place: np.ndarray, insect: Dragonfly = DRAGONFLY, xp: ArrayNamespace = NUMPY
 ) -> Any:
-    """(B,) distance [m] between the fore-wing's chord and the hind-wing's at ``place`` (B, 3)
-    (one of :func:`gap_places`) of physical strokes (B, 28) in the array namespace ``xp``: on
-    torch, differentiable with respect to the strokes (at a least distance, its derivative
-    with the place held is the whole derivative: the envelope theorem)."""
+    """Distance [m] between the fore-wing's chord and the hind-wing's at ``place``, (B, 3) or
+    (B, n, 3) places (:func:`gap_places`), of physical strokes (B, 28) in the array namespace
+    ``xp``: (B,) or (B, n); on torch, differentiable with respect to the strokes (at a least
+    distance, its derivative with the place held is the whole derivative: the envelope
+    theorem)."""
+    places = place.reshape(len(place), -1, 3)  # (B, n, 3)
     fore = wing_params_radians(physical[:, :N_PER_WING], xp)
     hind = wing_params_radians(physical[:, N_PER_WING:], xp)
-    x = 2.0 * math.pi * xp.constant_like(place[:, :1], fore[:, :1])  # the fore-wing's phase
-    p = _station_ends(fore, x, place[:, 1:2], insect.fore, (0.0, 0.0, 0.0), xp)
+    x = 2.0 * math.pi * xp.constant_like(places[:, :, 0], fore[:, :1])  # the fore-wing's phase
+    p = _station_ends(fore, x, places[:, :, 1], insect.fore, (0.0, 0.0, 0.0), xp)
     q = _station_ends(
-        hind, x * (hind[:, :1] / fore[:, :1]), place[:, 2:3], insect.hind, _root(insect), xp
+        hind, x * (hind[:, :1] / fore[:, :1]), places[:, :, 2], insect.hind, _root(insect), xp
     )
-    return on_namespace(segment_gap, xp)(*p, *q)[:, 0]
+    return on_namespace(segment_gap, xp)(*p, *q).reshape(place.shape[:-1])
 
 
 def _root(insect: Dragonfly) -> tuple[float, float, float]:

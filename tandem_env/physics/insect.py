@@ -345,10 +345,11 @@ class Dragonfly:
     checks. Table 4's unless set; in a mapping or file, the parameters that differ
     (``stroke_bounds: {fore_frequency: [15, 25]}``, :meth:`StrokeBounds.with_changes`)."""
     min_wing_gap: float | None = None
-    """The least distance [m] the fore- and hind-wing surfaces keep over a cycle: a constraint
-    of every flight task (``wing_gap_violation``), the model reporting the distance as
-    ``Result.wing_gap`` (:func:`~tandem_env.physics.clearance.wing_gap`); None, the paper's
-    specimen: no such constraint, and none computed (docs/model.md §5.8, *The wings meet*)."""
+    """The least distance [m] the fore- and hind-wing surfaces keep over a cycle: constraints
+    of every flight task (``wing_gap_violation``, ``wing_gap_next_violation``), the model
+    reporting the distances as ``Result.wing_gap`` and ``wing_gap_next``
+    (:func:`~tandem_env.physics.clearance.gaps`); None, the paper's specimen: no such
+    constraint, and none computed (docs/model.md §5.8, *The wings meet*, *Kept apart*)."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.fore, Wing) or not isinstance(self.hind, Wing):

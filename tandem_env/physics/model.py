@@ -168,11 +168,11 @@ class Result:
     """Available power per mass [W/kg]."""
     wing_gap: np.ndarray | None = None
     """The least distance between the fore- and hind-wing surfaces over the cycle [m]
-    (:func:`~tandem_env.physics.clearance.wing_gap`), computed where the insect sets
+    (:func:`~tandem_env.physics.clearance.gaps`), computed where the insect sets
     ``min_wing_gap`` (the tasks' constraint on it); None otherwise, and then in no dict."""
     wing_gap_next: np.ndarray | None = None
     """The distance at the next place where the wings come close [m]: the closest other local
-    minimum of their distance over the cycle (``clearance.gaps``; ``wing_gap`` + 1 m where
+    minimum of their distance over the cycle (``wing_gap`` + ``insect.MAX_WING_GAP`` where
     there is none), so that a constraint holds at each place the wings may touch; computed
     with ``wing_gap``."""
     options: ModelOptions = DEFAULT_OPTIONS
