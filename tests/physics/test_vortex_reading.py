@@ -299,8 +299,9 @@ def test_hover_and_climb_are_finite(flight_path_angle):
             marks=pytest.mark.xfail(
                 strict=True,
                 reason="in hover one of the 1 024 fixed points (stroke 714, a hind pair lifting "
-                "downwards alone) does not converge: its residual stays at 1-3 % under Anderson's "
-                "step of any depth (docs/model.md §5.8 item 8)",
+                "downwards alone) does not converge: the fore pair's momentum balance at one "
+                "annulus has three roots there, and the passes switch between the lowest and the "
+                "highest under Anderson's step of any depth (docs/model.md §5.8 item 8)",
             ),
         ),
         0.3,
